@@ -1,0 +1,70 @@
+"""Command line: thin wrappers over the library (contract in ARCHITECTURE.md)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from functools import wraps
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from armcal import __version__
+from armcal.errors import UserError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, help="Kinematic calibration of robot arms.")
+
+SpecArg = Annotated[Path, typer.Argument(help="Calibration spec (YAML).", show_default=False)]
+
+
+def user_errors(command: Callable) -> Callable:
+    """Print a user error as one clear message and exit 1, without a traceback."""
+
+    @wraps(command)
+    def wrapper(*args, **kwargs):
+        try:
+            return command(*args, **kwargs)
+        except UserError as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(1) from None
+
+    return wrapper
+
+
+@app.command()
+@user_errors
+def validate(spec: SpecArg) -> None:
+    """Check a spec; list every problem with file, line, column and field."""
+    from armcal.summary import spec_summary
+    from armcal.spec import load_spec
+
+    typer.echo(spec_summary(load_spec(spec)))
+
+
+@app.command()
+def schema() -> None:
+    """Print the JSON Schema of specs (for editor completion and checks)."""
+    from armcal.spec.schema import spec_json_schema
+
+    typer.echo(json.dumps(spec_json_schema(), indent=2))
+
+
+@app.command()
+@user_errors
+def fk(
+    spec: SpecArg,
+    q: Annotated[str, typer.Option(help="Joint values in the spec's units, comma separated.")],
+    target: Annotated[str | None, typer.Option(help="A robot target instead of the tool.")] = None,
+) -> None:
+    """Forward kinematics of the spec's nominal robot at one configuration."""
+    from armcal.summary import forward_kinematics_report
+    from armcal.spec import load_spec
+
+    typer.echo(forward_kinematics_report(load_spec(spec), q, target))
+
+
+@app.command()
+def version() -> None:
+    """Print armcal's version."""
+    typer.echo(__version__)

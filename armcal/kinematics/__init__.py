@@ -1,0 +1,1 @@
+"""Kinematic models: conventions, the chain compiler and S-Model <-> DH conversions."""

@@ -1,0 +1,106 @@
+"""The named parameter vector of a robot: names, units, nominal values, free mask, bounds.
+
+Names are ``base.x``, ``j2.a`` (joint parameters), ``L3.gamma`` (six_parameter
+links), ``tool.rz`` and ``<target>.x``; values are in mm, rad or 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from armcal.spec.base import Parameter
+from armcal.spec.robot import RobotBase, SixParameterRobot, joint_kind
+from armcal.units import INTERNAL_UNIT
+
+POSE_FIELDS = ("x", "y", "z", "rx", "ry", "rz")
+LINK_FIELDS = ("x", "y", "z", "alpha", "beta", "gamma")
+JOINT_FIELDS = {
+    "dh": ("theta", "d", "a", "alpha"),
+    "mdh": ("theta", "d", "a", "alpha", "beta"),
+    "s_model": ("beta", "d", "a", "alpha", "gamma", "b"),
+    "six_parameter": ("theta0", "k"),
+}
+_LENGTHS = {"x", "y", "z", "d", "a", "b"}
+_SCALES = {"k"}
+
+
+def field_kind(field: str, joint_type: str = "revolute") -> str:
+    """length, angle or scale for a parameter field (theta0 follows the joint type)."""
+    if field == "theta0":
+        return joint_kind(joint_type)
+    if field in _LENGTHS:
+        return "length"
+    return "scale" if field in _SCALES else "angle"
+
+
+@dataclass(frozen=True)
+class ParameterInfo:
+    name: str
+    kind: str  # length | angle | scale
+    nominal: float
+    free: bool
+    lower: float | None
+    upper: float | None
+
+    @property
+    def unit(self) -> str:
+        return INTERNAL_UNIT[self.kind]
+
+
+@dataclass(frozen=True)
+class ParameterSet:
+    """Ordered parameters of a model."""
+
+    entries: tuple[ParameterInfo, ...]
+
+    @property
+    def names(self) -> list[str]:
+        return [e.name for e in self.entries]
+
+    @property
+    def nominal(self) -> np.ndarray:
+        return np.array([e.nominal for e in self.entries])
+
+    @property
+    def free(self) -> np.ndarray:
+        return np.array([e.free for e in self.entries], dtype=bool)
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def index(self, name: str) -> int:
+        return self.names.index(name)
+
+    def values(self, p: np.ndarray) -> dict[str, float]:
+        return dict(zip(self.names, np.asarray(p, dtype=float)))
+
+
+def _entry(name: str, kind: str, parameter: Parameter) -> ParameterInfo:
+    return ParameterInfo(name, kind, parameter.value, parameter.vary, parameter.min, parameter.max)
+
+
+def _pose_entries(prefix: str, pose, fields=POSE_FIELDS) -> list[ParameterInfo]:
+    out = []
+    for field in fields:
+        parameter = getattr(pose, field)
+        if parameter is not None:
+            out.append(_entry(f"{prefix}.{field}", field_kind(field), parameter))
+    return out
+
+
+def parameter_set(robot: RobotBase) -> ParameterSet:
+    """All parameters of a spec robot in chain order: base, joints (and links), tool, targets."""
+    entries = _pose_entries("base", robot.base)
+    fields = JOINT_FIELDS[robot.convention]  # type: ignore[attr-defined]
+    for i, (name, joint) in enumerate(zip(robot.joint_names(), robot.joints), start=1):  # type: ignore[attr-defined]
+        if isinstance(robot, SixParameterRobot):
+            entries += _pose_entries(f"L{i}", robot.links[i - 1], LINK_FIELDS)
+        entries += [_entry(f"{name}.{f}", field_kind(f, joint.type), getattr(joint, f)) for f in fields]
+    if isinstance(robot, SixParameterRobot):
+        entries += _pose_entries(f"L{robot.dof + 1}", robot.links[robot.dof], LINK_FIELDS)
+    entries += _pose_entries("tool", robot.tool)
+    for name, target in robot.targets.items():
+        entries += _pose_entries(name, target)
+    return ParameterSet(tuple(entries))

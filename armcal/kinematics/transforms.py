@@ -1,0 +1,87 @@
+"""Paul's primitive homogeneous transforms (Stone App. A), numeric or symbolic.
+
+Each function works on floats (returning a numpy 4x4) and on CasADi SX/MX
+(returning a CasADi 4x4), so one definition serves the compiled model and the
+numeric conversions.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+_SYMBOLIC = (ca.SX, ca.MX, ca.DM)
+
+
+def _is_symbolic(*values) -> bool:
+    return any(isinstance(v, _SYMBOLIC) for v in values)
+
+
+def _matrix(rows, symbolic: bool):
+    if symbolic:
+        return ca.vertcat(*[ca.horzcat(*row) for row in rows])
+    return np.array(rows, dtype=float)
+
+
+def _cos_sin(angle):
+    if isinstance(angle, _SYMBOLIC):
+        return ca.cos(angle), ca.sin(angle)
+    return np.cos(angle), np.sin(angle)
+
+
+def trans(x, y, z):
+    """Trans(x, y, z)."""
+    return _matrix([[1, 0, 0, x], [0, 1, 0, y], [0, 0, 1, z], [0, 0, 0, 1]], _is_symbolic(x, y, z))
+
+
+def rot_x(angle):
+    """Rot(x, angle)."""
+    c, s = _cos_sin(angle)
+    return _matrix([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]], _is_symbolic(angle))
+
+
+def rot_y(angle):
+    """Rot(y, angle)."""
+    c, s = _cos_sin(angle)
+    return _matrix([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1]], _is_symbolic(angle))
+
+
+def rot_z(angle):
+    """Rot(z, angle)."""
+    c, s = _cos_sin(angle)
+    return _matrix([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], _is_symbolic(angle))
+
+
+def compose(*matrices):
+    """Product of homogeneous transforms, left to right."""
+    result = matrices[0]
+    for matrix in matrices[1:]:
+        result = ca.mtimes(result, matrix) if _is_symbolic(result, matrix) else result @ matrix
+    return result
+
+
+def xyz_zyx(x, y, z, rz, ry, rx):
+    """Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx): a pose, and Goswami's link transform (3)."""
+    return compose(trans(x, y, z), rot_z(rz), rot_y(ry), rot_x(rx))
+
+
+def inverse(T: np.ndarray) -> np.ndarray:
+    """Inverse of a numeric homogeneous transform."""
+    R, p = T[:3, :3], T[:3, 3]
+    out = np.eye(4)
+    out[:3, :3] = R.T
+    out[:3, 3] = -R.T @ p
+    return out
+
+
+def pose_from_matrix(T: np.ndarray) -> tuple[float, float, float, float, float, float]:
+    """(x, y, z, rz, ry, rx) such that xyz_zyx(...) == T (ZYX Euler angles, ry in [-pi/2, pi/2])."""
+    R = T[:3, :3]
+    ry = float(np.arctan2(-R[2, 0], np.hypot(R[0, 0], R[1, 0])))
+    if np.hypot(R[0, 0], R[1, 0]) > 1e-12:
+        rz = float(np.arctan2(R[1, 0], R[0, 0]))
+        rx = float(np.arctan2(R[2, 1], R[2, 2]))
+    else:  # gimbal lock: only rz - rx (or rz + rx) is defined; put it all in rz
+        rz = float(np.arctan2(-R[0, 1], R[1, 1]))
+        rx = 0.0
+    return float(T[0, 3]), float(T[1, 3]), float(T[2, 3]), rz, ry, rx

@@ -1,0 +1,137 @@
+"""Cross-reference checks that a single field cannot make on its own.
+
+Each check yields (location, message) where location is the path of the field
+in the spec, so the loader can name file, line and column.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+from armcal.spec.device import BallBar, SonicDigitizer, Theodolite, Tracker
+from armcal.spec.model import Spec
+from armcal.spec.procedure import CirclePoint, Shells
+from armcal.spec.robot import SixParameterRobot
+from armcal.spec.sections import PivotOffset, RangeBias
+
+Loc = tuple[str | int, ...]
+Problem = tuple[Loc, str]
+
+
+def check_spec(spec: Spec) -> list[Problem]:
+    """All cross-reference problems of a spec that validated field by field."""
+    return [*_robot(spec), *_device(spec), *_procedures(spec), *_effects(spec)]
+
+
+def _robot(spec: Spec) -> Iterator[Problem]:
+    robot = spec.robot
+    seen: dict[str, int] = {}
+    for i, name in enumerate(robot.joint_names()):
+        if name in seen:
+            yield ("robot", "joints", i, "name"), f"joint name '{name}' is already used by joint {seen[name] + 1}"
+        seen[name] = i
+    reserved = {"base", "tool", *seen, *(f"L{i}" for i in range(1, robot.dof + 2))}
+    for name, target in robot.targets.items():
+        if name in reserved or "." in name:
+            yield ("robot", "targets", name), f"target name '{name}' clashes with a joint, link, base or tool name"
+        if target.link > robot.dof:
+            yield (
+                ("robot", "targets", name, "link"),
+                f"link {target.link} does not exist: this robot has links 0..{robot.dof}",
+            )
+    if isinstance(robot, SixParameterRobot) and len(robot.links) != robot.dof + 1:
+        yield (
+            ("robot", "links"),
+            f"a six_parameter robot with {robot.dof} joints needs {robot.dof + 1} links, got {len(robot.links)}",
+        )
+
+
+def _target_refs(spec: Spec, names: list[str], loc: Loc, what: str) -> Iterator[Problem]:
+    for i, name in enumerate(names):
+        if name not in spec.robot.targets:
+            known = ", ".join(spec.robot.targets) or "none defined"
+            yield (*loc, i), f"{what} '{name}' is not a robot target (targets: {known})"
+
+
+def _device(spec: Spec) -> Iterator[Problem]:
+    device = spec.device
+    if isinstance(device, BallBar):
+        yield from _target_refs(spec, device.spheres, ("device", "spheres"), "sphere")
+    elif isinstance(device, (Theodolite, Tracker)):
+        yield from _target_refs(spec, device.targets, ("device", "targets"), "target")
+    elif isinstance(device, SonicDigitizer):
+        for i, rod in enumerate(device.calibration_rods):
+            if rod.microphone not in device.microphones:
+                yield (
+                    ("device", "calibration_rods", i, "microphone"),
+                    f"microphone '{rod.microphone}' is not in device.microphones",
+                )
+
+
+def _procedures(spec: Spec) -> Iterator[Problem]:
+    for key in ("procedure", "validation"):
+        procedure = getattr(spec, key)
+        if isinstance(procedure, CirclePoint):
+            yield from _circle_point(spec, procedure, (key,))
+        elif isinstance(procedure, Shells):
+            yield from _shells(spec, procedure, (key,))
+
+
+def _circle_point(spec: Spec, procedure: CirclePoint, loc: Loc) -> Iterator[Problem]:
+    robot = spec.robot
+    if not isinstance(spec.device, SonicDigitizer | Tracker | Theodolite):
+        yield (*loc, "type"), f"circle_point needs a device that measures target positions, not {spec.device.type}"
+    if len(procedure.signature) != robot.dof:
+        yield (*loc, "signature"), f"needs {robot.dof} joint values, got {len(procedure.signature)}"
+    else:
+        for i, (value, joint) in enumerate(zip(procedure.signature, robot.joints)):
+            low, high = joint.limits
+            if not low <= value <= high:
+                yield (*loc, "signature", i), f"joint {i + 1} value lies outside its limits"
+    if len(procedure.targets) != robot.dof:
+        yield (*loc, "targets"), f"needs one target per joint ({robot.dof}), got {len(procedure.targets)}"
+    yield from _target_refs(spec, procedure.targets, (*loc, "targets"), "target")
+    for i, name in enumerate(procedure.targets):
+        target = robot.targets.get(name)
+        if target is not None and target.link != i + 1:
+            yield (*loc, "targets", i), f"target '{name}' is on link {target.link}; joint {i + 1} needs one on link {i + 1}"
+    counts = procedure.points_per_joint
+    if isinstance(counts, list) and len(counts) != robot.dof:
+        yield (*loc, "points_per_joint"), f"needs one count per joint ({robot.dof}), got {len(counts)}"
+    for i, n in enumerate(counts if isinstance(counts, list) else [counts]):
+        if n < 3:
+            yield (*loc, "points_per_joint"), f"a circle needs at least 3 points, got {n}"
+
+
+def _shells(spec: Spec, procedure: Shells, loc: Loc) -> Iterator[Problem]:
+    device = spec.device
+    if not isinstance(device, BallBar):
+        yield (*loc, "type"), f"shells needs a ballbar device, not {device.type}"
+        return
+    for i, pairing in enumerate(procedure.pairings):
+        if pairing.pivot not in device.pivots:
+            yield (*loc, "pairings", i, "pivot"), f"pivot '{pairing.pivot}' is not in device.pivots"
+        if pairing.sphere not in device.spheres:
+            yield (*loc, "pairings", i, "sphere"), f"sphere '{pairing.sphere}' is not in device.spheres"
+    if procedure.extension is not None and procedure.extension not in device.extension_rods:
+        yield (*loc, "extension"), f"extension rod '{procedure.extension}' is not in device.extension_rods"
+
+
+def _effects(spec: Spec) -> Iterator[Problem]:
+    sections = [("effects",)]
+    if spec.simulate is not None:
+        sections.append(("simulate", "effects"))
+    for loc in sections:
+        effects = spec.effects if loc == ("effects",) else spec.simulate.effects  # type: ignore[union-attr]
+        for i, effect in enumerate(effects):
+            joint = getattr(effect, "joint", None)
+            if joint is not None and joint > spec.robot.dof:
+                yield (*loc, i, "joint"), f"joint {joint} does not exist: this robot has joints 1..{spec.robot.dof}"
+            if isinstance(effect, RangeBias) and (
+                not isinstance(spec.device, SonicDigitizer) or effect.microphone not in spec.device.microphones
+            ):
+                yield (*loc, i, "microphone"), f"microphone '{effect.microphone}' is not in device.microphones"
+            if isinstance(effect, PivotOffset) and (
+                not isinstance(spec.device, BallBar) or effect.pivot not in spec.device.pivots
+            ):
+                yield (*loc, i, "pivot"), f"pivot '{effect.pivot}' is not in device.pivots"

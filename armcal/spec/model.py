@@ -1,0 +1,28 @@
+"""The whole spec: robot + device + procedure, and the optional sections."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from armcal.spec.base import SpecModel
+from armcal.spec.device import Device
+from armcal.spec.procedure import Procedure
+from armcal.spec.robot import Robot
+from armcal.spec.sections import Data, Diagnose, Effect, Report, Simulate
+
+
+class Spec(SpecModel):
+    """A calibration spec, all quantities in mm and rad."""
+
+    armcal: Literal[1] = Field(1, description="spec format version")
+    robot: Robot
+    device: Device
+    procedure: Procedure
+    validation: Procedure | None = Field(None, description="procedure of the held-out validation set")
+    data: Data | None = None
+    simulate: Simulate | None = None
+    effects: list[Effect] = Field([], description="non-geometric effects in the fitted model")
+    diagnose: Diagnose = Diagnose()
+    report: Report = Report()

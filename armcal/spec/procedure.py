@@ -1,0 +1,60 @@
+"""The ``procedure`` section: which poses are measured, discriminated on ``type``."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import Field, ValidationInfo, WithJsonSchema, field_validator
+
+from armcal.spec.base import Angle, Length, SpecModel, convert, quantity_schema
+
+
+def joint_values(raw: Any, info: ValidationInfo) -> Any:
+    """A list of joint values in each joint's unit (kinds from the loader's context)."""
+    if not isinstance(raw, list):
+        return raw
+    kinds = (info.context or {}).get("joint_kinds", [])
+    return [convert(v, info, kinds[i] if i < len(kinds) else "angle") for i, v in enumerate(raw)]
+
+
+class CirclePoint(SpecModel):
+    """Stone's circle-point sweeps (4.5, 6.4): joint i swept with joints 1..i-1 at the signature."""
+
+    type: Literal["circle_point"]
+    signature: list[Annotated[float, WithJsonSchema(quantity_schema("angle", "length"))]] = Field(description="signature configuration, one value per joint (joint units)")
+    targets: list[str] = Field(description="target swept by each joint, in joint order (target i on link i)")
+    points_per_joint: int | list[int] = Field(20, description="N_i, one number for all joints or one per joint")
+    averaging: int = Field(10, ge=1, description="N_avg readings averaged per position")
+
+    @field_validator("signature", mode="before")
+    @classmethod
+    def _in_joint_units(cls, raw: Any, info: ValidationInfo) -> Any:
+        return joint_values(raw, info)
+
+
+class Pairing(SpecModel):
+    pivot: str
+    sphere: str
+
+
+class Shells(SpecModel):
+    """Goswami's hemispherical shells: latitude/longitude points around each pivot."""
+
+    type: Literal["shells"]
+    pairings: list[Pairing] = Field(min_length=1)
+    latitudes: list[Angle] = Field(min_length=1, description="elevation of each ring above the pivot")
+    longitudes: int = Field(12, ge=1, description="points per ring")
+    extension: str | None = Field(None, description="extension rod fitted (name from device.extension_rods)")
+    radius: Length | None = Field(None, description="shell radius; default: bar length at mid-travel")
+
+
+class Poses(SpecModel):
+    """Poses from a CSV file of joint values, or ``count`` random poses within limits."""
+
+    type: Literal["poses"]
+    file: str | None = None
+    count: int | None = Field(None, ge=1)
+    seed: int = 0
+
+
+Procedure = Annotated[Union[CirclePoint, Shells, Poses], Field(discriminator="type")]

@@ -1,0 +1,173 @@
+"""Smaller spec sections: data files, simulation, declared effects, diagnosis, report."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal, Union
+
+from pydantic import Field
+
+from armcal.spec.base import Angle, AngleParam, Length, LengthParam, Number, ScaleParam, SpecModel, fixed
+
+DEG = math.pi / 180.0
+
+EFFECT_TYPES = (
+    "encoder_scale",
+    "gear_harmonic",
+    "joint_compliance",
+    "backlash",
+    "thermal_drift",
+    "sensor_scale",
+    "range_bias",
+    "ballbar_length",
+    "pivot_offset",
+)
+
+
+class Data(SpecModel):
+    """Measured data files (CSV, contract columns), relative to the spec file."""
+
+    calibration: str
+    validation: str | None = None
+
+
+class EncoderScale(SpecModel):
+    """theta = q (1 + scale): a joint's encoder gain error."""
+
+    type: Literal["encoder_scale"]
+    joint: int = Field(ge=1)
+    scale: ScaleParam = fixed(0.0)
+
+
+class GearHarmonic(SpecModel):
+    """Sinusoidal transmission error of one order (Whitney & Lozinski): sin and cos amplitudes."""
+
+    type: Literal["gear_harmonic"]
+    joint: int = Field(ge=1)
+    order: int = Field(ge=1)
+    ratio: float = Field(1.0, gt=0.0, description="gear ratio for motor-side harmonics (1 = joint side)")
+    sin: AngleParam = fixed(0.0)
+    cos: AngleParam = fixed(0.0)
+
+
+class LinkMass(SpecModel):
+    """A lumped mass on a link for gravity torques: kg and centre of mass in the link frame."""
+
+    link: int = Field(ge=1)
+    mass: float = Field(gt=0.0, description="kg")
+    x: Length = 0.0
+    y: Length = 0.0
+    z: Length = 0.0
+
+
+class JointCompliance(SpecModel):
+    """Joint deflection = compliance x gravity torque from a lumped mass model."""
+
+    type: Literal["joint_compliance"]
+    joint: int = Field(ge=1)
+    compliance: Number = Field(0.0, description="rad per N m")
+    vary: bool = True
+    masses: list[LinkMass] = []
+
+
+class Backlash(SpecModel):
+    """Joint error = half_width x approach direction (needs dir columns)."""
+
+    type: Literal["backlash"]
+    joint: int = Field(ge=1)
+    half_width: AngleParam = fixed(0.0)
+
+
+class ThermalDrift(SpecModel):
+    """Link lengths scaled by coefficient x (temperature - reference), or by drift rate x time."""
+
+    type: Literal["thermal_drift"]
+    source: Literal["temperature", "time"] = "temperature"
+    coefficient: Number = Field(0.0, description="1/degC for temperature, 1/s for time")
+    vary: bool = True
+    reference_temperature: float = Field(20.0, description="degC")
+
+
+class SensorScale(SpecModel):
+    """Instrument scale error (speed of sound for the sonic digitizer)."""
+
+    type: Literal["sensor_scale"]
+    scale: ScaleParam = fixed(0.0)
+
+
+class RangeBias(SpecModel):
+    """A constant bias of one microphone's slant range (Stone's unidentified prototype limit)."""
+
+    type: Literal["range_bias"]
+    microphone: str
+    bias: LengthParam = fixed(0.0)
+
+
+class BallbarLength(SpecModel):
+    """An offset of the ball-bar's length."""
+
+    type: Literal["ballbar_length"]
+    offset: LengthParam = fixed(0.0)
+
+
+class PivotOffset(SpecModel):
+    """A displacement of one ball-bar pivot."""
+
+    type: Literal["pivot_offset"]
+    pivot: str
+    x: LengthParam = fixed(0.0)
+    y: LengthParam = fixed(0.0)
+    z: LengthParam = fixed(0.0)
+
+
+Effect = Annotated[
+    Union[
+        EncoderScale,
+        GearHarmonic,
+        JointCompliance,
+        Backlash,
+        ThermalDrift,
+        SensorScale,
+        RangeBias,
+        BallbarLength,
+        PivotOffset,
+    ],
+    Field(discriminator="type"),
+]
+
+
+class Simulate(SpecModel):
+    """How ``armcal simulate`` builds the true robot and its measurements."""
+
+    seed: int = 0
+    truth: Literal["manufacturing_errors", "perturbation"] = "manufacturing_errors"
+    sigma_p: Length = Field(0.1, ge=0.0, description="positional manufacturing error sigma (Stone 7.2)")
+    sigma_o: Angle = Field(0.01 * DEG, ge=0.0, description="orientational manufacturing error sigma (Stone 7.2)")
+    sigma_e: Angle = Field(0.1 * DEG, ge=0.0, description="encoder calibration error sigma (Stone 7.2)")
+    noise: bool = True
+    effects: list[Effect] = Field([], description="hidden effects, never visible to the fit")
+    time_step: float = Field(10.0, ge=0.0, description="seconds between samples (t column)")
+    temperature: tuple[float, float] | None = Field(None, description="start and end temperature, degC")
+
+
+class Diagnose(SpecModel):
+    """The residual diagnosis loop after each fit."""
+
+    enabled: bool = True
+    alpha: float = Field(0.01, gt=0.0, lt=1.0, description="family-wise false-positive rate")
+    max_rounds: int = Field(3, ge=0)
+    candidates: list[Literal[EFFECT_TYPES]] | None = None  # type: ignore[valid-type]
+    harmonic_orders: int = Field(3, ge=1)
+    holdout: Literal["validation", "kfold"] = "validation"
+    folds: int = Field(5, ge=2)
+
+
+class Report(SpecModel):
+    """Certificate fields."""
+
+    certificate_number: str | None = None
+    customer: str | None = None
+    operator: str | None = None
+    location: str | None = None
+    notes: str | None = None
+    template: str | None = None

@@ -1,0 +1,72 @@
+"""Plain-text views of a spec for the terminal: what validate and fk print."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armcal.errors import UserError
+from armcal.kinematics.compiler import compile_robot
+from armcal.kinematics.transforms import pose_from_matrix
+from armcal.spec import LoadedSpec
+from armcal.spec.robot import joint_kind
+from armcal.units import from_internal, to_internal
+
+
+def spec_summary(loaded: LoadedSpec) -> str:
+    """One paragraph: robot, parameters, device and procedure of a valid spec."""
+    spec = loaded.spec
+    robot = spec.robot
+    parameters = compile_robot(robot).parameters
+    free = int(parameters.free.sum())
+    lines = [
+        f"{loaded.path}: valid (sha256 {loaded.sha256[:12]})",
+        f"  robot      {robot.name}, serial {robot.serial}: {robot.dof} joints, convention {robot.convention}",
+        f"  parameters {len(parameters)} ({free} free, {len(parameters) - free} fixed)",
+        f"  units      {robot.units.length}, {robot.units.angle}",
+        f"  device     {spec.device.type}",
+        f"  procedure  {spec.procedure.type}" + (f", validation {spec.validation.type}" if spec.validation else ""),
+    ]
+    return "\n".join(lines)
+
+
+def parse_joint_values(loaded: LoadedSpec, text: str) -> np.ndarray:
+    """Joint values 'v1,v2,...' in the spec's units -> internal units, checked against the limits."""
+    robot = loaded.spec.robot
+    parts = [p for p in text.replace(" ", "").split(",") if p]
+    if len(parts) != robot.dof:
+        raise UserError(f"--q needs {robot.dof} joint values, got {len(parts)}")
+    values = []
+    for i, (part, joint) in enumerate(zip(parts, robot.joints), start=1):
+        kind = joint_kind(joint.type)
+        unit = robot.units.angle if kind == "angle" else robot.units.length
+        try:
+            value = to_internal(part, kind, unit)
+        except ValueError as exc:
+            raise UserError(f"--q joint {i}: {exc}") from None
+        low, high = joint.limits
+        if not low <= value <= high:
+            limits = ", ".join(f"{from_internal(v, kind, unit):g}" for v in joint.limits)
+            raise UserError(f"--q joint {i} = {part} lies outside its limits [{limits}] {unit}")
+        values.append(value)
+    return np.array(values)
+
+
+def forward_kinematics_report(loaded: LoadedSpec, q_text: str, target: str | None) -> str:
+    """The nominal pose of the tool (or a target) at one configuration, in the spec's units."""
+    robot = loaded.spec.robot
+    model = compile_robot(robot)
+    q = parse_joint_values(loaded, q_text)
+    if target is not None and target not in model.targets:
+        raise UserError(f"unknown target '{target}'; targets: {', '.join(model.targets) or 'none'}")
+    T = model.target_poses(target, q)[0] if target else model.tool_poses(q)[0]
+    length, angle = robot.units.length, robot.units.angle
+    x, y, z, rz, ry, rx = pose_from_matrix(T)
+    position = ", ".join(f"{from_internal(v, 'length', length):.4f}" for v in (x, y, z))
+    angles = ", ".join(f"{from_internal(v, 'angle', angle):.4f}" for v in (rz, ry, rx))
+    rows = "\n".join("    [" + "  ".join(f"{v:11.6f}" for v in row[:3]) + f"  {from_internal(row[3], 'length', length):12.4f} ]" for row in T[:3])
+    return (
+        f"{target or 'tool'} pose of {robot.name} (nominal) at q = [{q_text}]\n"
+        f"  position ({length}):              {position}\n"
+        f"  rotation Rz, Ry, Rx ({angle}):     {angles}\n"
+        f"  matrix (rotation | position in {length}):\n{rows}"
+    )

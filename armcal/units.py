@@ -1,0 +1,58 @@
+"""Units at the boundary: spec and CSV values in their units, internally mm and rad.
+
+A quantity in a spec is a number (in the spec's default unit for its kind) or a
+string with an explicit unit such as ``"43.18 cm"`` or ``"2 arcsec"``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+LENGTH_UNITS: dict[str, float] = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "um": 1e-3, "in": 25.4}
+ANGLE_UNITS: dict[str, float] = {
+    "rad": 1.0,
+    "deg": math.pi / 180.0,
+    "arcmin": math.pi / (180.0 * 60.0),
+    "arcsec": math.pi / (180.0 * 3600.0),
+}
+UNITS_BY_KIND: dict[str, dict[str, float]] = {
+    "length": LENGTH_UNITS,
+    "angle": ANGLE_UNITS,
+    "scale": {"1": 1.0},
+}
+INTERNAL_UNIT = {"length": "mm", "angle": "rad", "scale": "1"}
+
+_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z]+)?\s*$")
+
+
+def factor(kind: str, unit: str) -> float:
+    """Multiplier from ``unit`` to the internal unit of ``kind``."""
+    table = UNITS_BY_KIND[kind]
+    if unit not in table:
+        article = "an" if kind[0] in "aeiou" else "a"
+        raise ValueError(f"'{unit}' is not {article} {kind} unit; use one of {', '.join(table)}")
+    return table[unit]
+
+
+def to_internal(value: float | int | str, kind: str, default_unit: str) -> float:
+    """Convert a spec quantity (number or 'number unit' string) to mm / rad / 1."""
+    if isinstance(value, bool):
+        raise ValueError(f"expected a {kind}, got {value!r}")
+    if isinstance(value, (int, float)):
+        number, unit = float(value), default_unit
+    elif isinstance(value, str):
+        match = _QUANTITY.match(value)
+        if not match:
+            raise ValueError(f"expected a {kind} such as '12.5' or '12.5 {default_unit}', got {value!r}")
+        number, unit = float(match.group(1)), match.group(2) or default_unit
+    else:
+        raise ValueError(f"expected a {kind}, got {type(value).__name__}")
+    if not math.isfinite(number):
+        raise ValueError(f"expected a finite {kind}, got {value!r}")
+    return number * factor(kind, unit)
+
+
+def from_internal(value: float, kind: str, unit: str) -> float:
+    """Convert an internal value back to ``unit``."""
+    return value / factor(kind, unit)

@@ -73,6 +73,10 @@ def smodel_from_transform(B: np.ndarray, reference: DHRow | None = None) -> SMod
     axes Stone sets beta = 0 (3.23); that keeps (3.19) only when p_y = 0, so for
     parallel but distinct axes beta points along the offset between them, and
     (3.23) is kept for coincident axes.
+
+    Erratum: (3.32) and (4.56) print b = (-p_x sin(beta) + p_y cos(beta)) / sin(alpha);
+    solving (3.31), -p_x sin(beta) + p_y cos(beta) = -b sin(alpha), gives the opposite
+    sign, which is what is used here (the tool pose test catches either error).
     """
     (nx, ox, ax, px), (ny, oy, ay, py), (_, _, az, pz) = B[0], B[1], B[2]
     if math.hypot(ax, ay) > PARALLEL_TOL:
@@ -88,12 +92,27 @@ def smodel_from_transform(B: np.ndarray, reference: DHRow | None = None) -> SMod
         gamma = math.atan2(-ox * cb - oy * sb, nx * cb + ny * sb)  # (3.29)
         a = px * cb + py * sb  # (3.30)
         sa = math.sin(alpha)
-        b = (-px * sb + py * cb) / sa if abs(sa) > PARALLEL_TOL else 0.0  # (3.32)
+        b = (px * sb - py * cb) / sa if abs(sa) > PARALLEL_TOL else 0.0  # (3.31); see erratum above
         d = pz - b * math.cos(alpha)  # (3.33)
         candidates.append(SModelRow(beta, d, a, alpha, gamma, b))
     if reference is not None:
         return min(candidates, key=lambda r: (round(abs(_wrap(r.alpha - reference.alpha)), 6), abs(r.a - reference.a)))
     return max(candidates, key=lambda r: (round(r.a, 9), r.alpha))
+
+
+def _parallel_axes_convention(rows: list[SModelRow]) -> list[SModelRow]:
+    """Where joints i and i+1 are parallel, b_i is free (only d_i + b_i cos(alpha_i) is fixed, (3.33)).
+
+    Take the DH convention of Stone 2.2.1: place the frame so that the next joint
+    distance is zero, d_{i+1} = d_{i+1}(S) + b_i = 0.
+    """
+    out = list(rows)
+    for i in range(len(rows) - 1):
+        row = out[i]
+        if abs(math.sin(row.alpha)) <= PARALLEL_TOL and row.b == 0.0:
+            b = -out[i + 1].d
+            out[i] = SModelRow(row.beta, row.d - b * math.cos(row.alpha), row.a, row.alpha, row.gamma, b)
+    return out
 
 
 @dataclass(frozen=True)
@@ -132,18 +151,25 @@ def pseudo_dh(
 ) -> PseudoDH:
     """Pseudo-DH parameters of any compiled robot, from its joint axes at the signature configuration.
 
-    S-Model frames: S_{i-1} = F_{i-1} (z on joint i's axis) and S_n = S_{n-1} at the
-    signature (4.3.3); B_i = S_{i-1}^-1 S_i (4.51); S-Model parameters (4.52)-(4.57);
+    S-Model frames: S_{i-1} = F_{i-1} (z on joint i's axis); B_i = S_{i-1}^-1 S_i (4.51);
+    S-Model parameters (4.52)-(4.57), with the DH convention for parallel axes. For
+    the last frame Stone takes S_n = S_{n-1} at the signature (4.3.3); here S_n is
+    S_{n-1} moved along joint n to the DH origin, so that d_n = 0 as in the DH
+    convention (2.2.1) and Table 6-2; the tool transform absorbs the difference;
     DH parameters (3.12)-(3.15) with encoder offsets (4.59)-(4.60); joint 1 by (4.72)/(4.73).
     """
     q_signature = np.asarray(q_signature, dtype=float)
     frames = model.link_frames(q_signature, p)
     n = model.dof
-    S = [frames[i] for i in range(n)] + [frames[n - 1]]
+    S = [frames[i] for i in range(n)]
     smodel = [
         smodel_from_transform(inverse(S[i - 1]) @ S[i], reference[i - 1] if reference and i <= len(reference) else None)
-        for i in range(1, n + 1)
+        for i in range(1, n)
     ]
+    smodel = _parallel_axes_convention(smodel)
+    b_last = smodel[-1].b if smodel else 0.0
+    smodel.append(SModelRow(0.0, -b_last, 0.0, 0.0, 0.0, 0.0))  # B_n = Trans(0, 0, -b_{n-1})
+    S.append(S[n - 1] @ trans(0.0, 0.0, -b_last))
     rows = []
     for i, (row, kind) in enumerate(zip(smodel, model.joint_types)):
         gamma_prev, b_prev = (0.0, 0.0) if i == 0 else (smodel[i - 1].gamma, smodel[i - 1].b)  # (4.71)

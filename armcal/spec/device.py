@@ -58,7 +58,7 @@ class BallBar(SpecModel):
     type: Literal["ballbar"]
     pivots: dict[str, Point] = Field(min_length=1)
     spheres: list[str] = Field(min_length=1, description="names of robot targets that carry a sphere")
-    length: LengthParam = Field(description="centre-to-centre length at zero LVDT reading")
+    length: LengthParam = Field(description="centre-to-centre length at mid-travel, without extension rods")
     extension_rods: dict[str, Length] = {}
     travel: Length = Field(gt=0.0, description="LVDT travel (7.5 cm in Goswami)")
     noise: Length = Field(ge=0.0, description="length noise sigma")

@@ -13,17 +13,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
+from pydantic import ValidationError
 from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from armcal import units
 from armcal.errors import Issue, SpecError, UserError
-from armcal.spec.base import SpecModel
 from armcal.spec.checks import check_spec
 from armcal.spec.model import Spec
 from armcal.spec.robot import joint_kind
+from armcal.spec.schema import allowed_keys
 
 MAX_NODES = 200_000  # guards against alias ("billion laughs") expansion
 DISCRIMINATORS = ("type", "convention")
@@ -205,26 +205,17 @@ def _issue(error: dict, document: _Document, path: Path) -> Issue:
     kind = error["type"]
     if kind in ("union_tag_invalid", "union_tag_not_found"):
         loc = (*loc, str(error.get("ctx", {}).get("discriminator", "")).strip("'"))
-    return _located(loc, plain_message(error, loc), document, path, key=kind == "extra_forbidden")
+    return _located(loc, plain_message(error, loc, document.data), document, path, key=kind == "extra_forbidden")
 
 
-def _known_fields() -> set[str]:
-    names: set[str] = set()
-    stack: list[type[BaseModel]] = [SpecModel]
-    while stack:
-        cls = stack.pop()
-        names.update(cls.model_fields)
-        stack.extend(cls.__subclasses__())
-    return names
-
-
-def plain_message(error: dict, loc: Loc) -> str:
+def plain_message(error: dict, loc: Loc, data: Any = None) -> str:
     """Rewrite a pydantic error as a plain sentence."""
     kind, ctx, value = error["type"], error.get("ctx", {}), error.get("input")
     if kind == "extra_forbidden":
         name = str(loc[-1]) if loc else ""
-        close = difflib.get_close_matches(name, sorted(_known_fields()), n=1, cutoff=0.75)
-        hint = f" Did you mean '{close[0]}'?" if close else ""
+        allowed = allowed_keys(loc[:-1], data)
+        close = difflib.get_close_matches(name, allowed, n=1, cutoff=0.6)
+        hint = f" Did you mean '{close[0]}'?" if close else (f" Allowed here: {', '.join(allowed)}." if allowed else "")
         return f"This field is unknown here. Remove it or check its spelling.{hint}"
     if kind == "missing":
         return "This field is required."

@@ -95,6 +95,12 @@ class _TooLarge(Exception):
     pass
 
 
+def _record(positions: dict, loc: Loc, mark: tuple[int, int] | None) -> None:
+    """Store a 0-based (line, column) from ruamel as 1-based; some nodes have none."""
+    if mark is not None:
+        positions[loc] = (mark[0] + 1, mark[1] + 1)
+
+
 def _plain(node: Any, loc: Loc, document: _Document, budget: list[int]) -> Any:
     budget[0] -= 1
     if budget[0] < 0:
@@ -103,17 +109,14 @@ def _plain(node: Any, loc: Loc, document: _Document, budget: list[int]) -> Any:
         out = {}
         for key in node:
             key_loc = (*loc, str(key))
-            line, col = node.lc.key(key)
-            document.keys[key_loc] = (line + 1, col + 1)
-            line, col = node.lc.value(key)
-            document.values[key_loc] = (line + 1, col + 1)
+            _record(document.keys, key_loc, node.lc.key(key))
+            _record(document.values, key_loc, node.lc.value(key))
             out[str(key)] = _plain(node[key], key_loc, document, budget)
         return out
     if isinstance(node, CommentedSeq):
         out_list = []
         for i, item in enumerate(node):
-            line, col = node.lc.item(i)
-            document.values[(*loc, i)] = (line + 1, col + 1)
+            _record(document.values, (*loc, i), node.lc.item(i))
             out_list.append(_plain(item, (*loc, i), document, budget))
         return out_list
     if hasattr(node, "value") and not isinstance(node, (int, float, str, bool)):

@@ -46,9 +46,9 @@ setup() { system_deps; venv; }
 
 demo() {
     setup
-    local spec=examples/puma560_sonic/spec.yaml
+    local spec=specs/puma560_dh.yaml
     "$VENV/bin/armcal" validate "$spec"
-    "$VENV/bin/armcal" fk "$spec" --q "155,179,178,0,0,0"
+    "$VENV/bin/armcal" fk "$spec" --q "0,-90,180,0,0,0"
 }
 
 tests() {

@@ -45,24 +45,26 @@ class Units(SpecModel):
     angle: Literal[tuple(units.ANGLE_UNITS)] = "deg"  # type: ignore[valid-type]
 
 
-class Pose(SpecModel):
-    """A rigid transform Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx); left-out parts are fixed at 0."""
+class Offset(SpecModel):
+    """A translation x, y, z; left-out parts are fixed at 0."""
 
     x: LengthParam = fixed(0.0)
     y: LengthParam = fixed(0.0)
     z: LengthParam = fixed(0.0)
+
+
+class Pose(Offset):
+    """A rigid transform Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx); left-out parts are fixed at 0."""
+
     rx: AngleParam = fixed(0.0)
     ry: AngleParam = fixed(0.0)
     rz: AngleParam = fixed(0.0)
 
 
-class Target(SpecModel):
+class Target(Offset):
     """A point (or, with any of rx/ry/rz, a frame) fixed on a link: sparker, sphere, reflector."""
 
     link: int = Field(ge=0, description="0 = base link, i = the link moved by joint i")
-    x: LengthParam = fixed(0.0)
-    y: LengthParam = fixed(0.0)
-    z: LengthParam = fixed(0.0)
     rx: AngleParam | None = None
     ry: AngleParam | None = None
     rz: AngleParam | None = None
@@ -129,12 +131,9 @@ class SixParameterJoint(JointBase):
         return normalize_parameter(raw, info, joint_kind(info.data.get("type", "revolute")))
 
 
-class SixParameterLink(SpecModel):
+class SixParameterLink(Offset):
     """Goswami's link transform Trans(x, y, z) Rot(z, alpha) Rot(y, beta) Rot(x, gamma) (3)."""
 
-    x: LengthParam = fixed(0.0)
-    y: LengthParam = fixed(0.0)
-    z: LengthParam = fixed(0.0)
     alpha: AngleParam = fixed(0.0)
     beta: AngleParam = fixed(0.0)
     gamma: AngleParam = fixed(0.0)

@@ -8,6 +8,7 @@ from typing import Annotated, Literal, Union
 from pydantic import Field
 
 from armcal.spec.base import Angle, AngleParam, Length, LengthParam, Number, ScaleParam, SpecModel, fixed
+from armcal.spec.robot import Offset
 
 DEG = math.pi / 180.0
 
@@ -31,19 +32,23 @@ class Data(SpecModel):
     validation: str | None = None
 
 
-class EncoderScale(SpecModel):
+class JointEffect(SpecModel):
+    """An effect acting on one joint (1-based)."""
+
+    joint: int = Field(ge=1)
+
+
+class EncoderScale(JointEffect):
     """theta = q (1 + scale): a joint's encoder gain error."""
 
     type: Literal["encoder_scale"]
-    joint: int = Field(ge=1)
     scale: ScaleParam = fixed(0.0)
 
 
-class GearHarmonic(SpecModel):
+class GearHarmonic(JointEffect):
     """Sinusoidal transmission error of one order (Whitney & Lozinski): sin and cos amplitudes."""
 
     type: Literal["gear_harmonic"]
-    joint: int = Field(ge=1)
     order: int = Field(ge=1)
     ratio: float = Field(1.0, gt=0.0, description="gear ratio for motor-side harmonics (1 = joint side)")
     sin: AngleParam = fixed(0.0)
@@ -60,21 +65,19 @@ class LinkMass(SpecModel):
     z: Length = 0.0
 
 
-class JointCompliance(SpecModel):
+class JointCompliance(JointEffect):
     """Joint deflection = compliance x gravity torque from a lumped mass model."""
 
     type: Literal["joint_compliance"]
-    joint: int = Field(ge=1)
     compliance: Number = Field(0.0, description="rad per N m")
     vary: bool = True
     masses: list[LinkMass] = []
 
 
-class Backlash(SpecModel):
+class Backlash(JointEffect):
     """Joint error = half_width x approach direction (needs dir columns)."""
 
     type: Literal["backlash"]
-    joint: int = Field(ge=1)
     half_width: AngleParam = fixed(0.0)
 
 
@@ -110,14 +113,11 @@ class BallbarLength(SpecModel):
     offset: LengthParam = fixed(0.0)
 
 
-class PivotOffset(SpecModel):
+class PivotOffset(Offset):
     """A displacement of one ball-bar pivot."""
 
     type: Literal["pivot_offset"]
     pivot: str
-    x: LengthParam = fixed(0.0)
-    y: LengthParam = fixed(0.0)
-    z: LengthParam = fixed(0.0)
 
 
 Effect = Annotated[

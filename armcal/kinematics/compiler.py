@@ -70,16 +70,16 @@ def compile_robot(robot: RobotBase) -> KinematicModel:
     joint_types = tuple(j.type for j in robot.joints)  # type: ignore[attr-defined]
     first, links = _chain(robot, symbol, ca.vertsplit(q), joint_types)
 
-    frames = [compose(_pose(symbol, "base"), first)]
+    frames = [compose(pose_from_symbols(symbol, "base"), first)]
     for link in links:
         frames.append(compose(frames[-1], link))
-    tool = compose(frames[-1], _pose(symbol, "tool"))
+    tool = compose(frames[-1], pose_from_symbols(symbol, "tool"))
 
     targets = {}
     for name, target in robot.targets.items():
         pose = trans(symbol[f"{name}.x"], symbol[f"{name}.y"], symbol[f"{name}.z"])
         if target.is_frame:
-            pose = _pose(symbol, name)
+            pose = pose_from_symbols(symbol, name)
         targets[name] = ca.Function(f"fk_{name}", [q, p], [compose(frames[target.link], pose)], ["q", "p"], ["T"])
 
     return KinematicModel(
@@ -95,7 +95,7 @@ def compile_robot(robot: RobotBase) -> KinematicModel:
     )
 
 
-def _pose(symbol: dict, prefix: str):
+def pose_from_symbols(symbol: dict, prefix: str):
     """Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx) of a pose whose absent angles are 0."""
     get = lambda field: symbol.get(f"{prefix}.{field}", 0.0)  # noqa: E731
     return xyz_zyx(get("x"), get("y"), get("z"), get("rz"), get("ry"), get("rx"))

@@ -81,7 +81,8 @@ def _entry(name: str, kind: str, parameter: Parameter) -> ParameterInfo:
     return ParameterInfo(name, kind, parameter.value, parameter.vary, parameter.min, parameter.max)
 
 
-def _pose_entries(prefix: str, pose, fields=POSE_FIELDS) -> list[ParameterInfo]:
+def pose_entries(prefix: str, pose, fields=POSE_FIELDS) -> list[ParameterInfo]:
+    """Entries ``prefix.field`` of a spec object's parameters (absent optional ones skipped)."""
     out = []
     for field in fields:
         parameter = getattr(pose, field)
@@ -92,15 +93,15 @@ def _pose_entries(prefix: str, pose, fields=POSE_FIELDS) -> list[ParameterInfo]:
 
 def parameter_set(robot: RobotBase) -> ParameterSet:
     """All parameters of a spec robot in chain order: base, joints (and links), tool, targets."""
-    entries = _pose_entries("base", robot.base)
+    entries = pose_entries("base", robot.base)
     fields = JOINT_FIELDS[robot.convention]  # type: ignore[attr-defined]
     for i, (name, joint) in enumerate(zip(robot.joint_names(), robot.joints), start=1):  # type: ignore[attr-defined]
         if isinstance(robot, SixParameterRobot):
-            entries += _pose_entries(f"L{i}", robot.links[i - 1], LINK_FIELDS)
+            entries += pose_entries(f"L{i}", robot.links[i - 1], LINK_FIELDS)
         entries += [_entry(f"{name}.{f}", field_kind(f, joint.type), getattr(joint, f)) for f in fields]
     if isinstance(robot, SixParameterRobot):
-        entries += _pose_entries(f"L{robot.dof + 1}", robot.links[robot.dof], LINK_FIELDS)
-    entries += _pose_entries("tool", robot.tool)
+        entries += pose_entries(f"L{robot.dof + 1}", robot.links[robot.dof], LINK_FIELDS)
+    entries += pose_entries("tool", robot.tool)
     for name, target in robot.targets.items():
-        entries += _pose_entries(name, target)
+        entries += pose_entries(name, target)
     return ParameterSet(tuple(entries))

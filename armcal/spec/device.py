@@ -27,7 +27,7 @@ class RangeNoise(SpecModel):
     """Range noise sigma = a * range + b, Stone (7.9)."""
 
     a: Number = Field(ge=0.0, description="dimensionless slope of sigma with range")
-    b: Length = Field(ge=0.0, description="sigma at zero range")
+    b: Length = Field(gt=0.0, description="sigma at zero range")
 
 
 class CalibrationRod(SpecModel):
@@ -61,7 +61,7 @@ class BallBar(SpecModel):
     length: LengthParam = Field(description="centre-to-centre length at mid-travel, without extension rods")
     extension_rods: dict[str, Length] = {}
     travel: Length = Field(gt=0.0, description="LVDT travel (7.5 cm in Goswami)")
-    noise: Length = Field(ge=0.0, description="length noise sigma")
+    noise: Length = Field(gt=0.0, description="length noise sigma")
 
 
 class Station(SpecModel):
@@ -71,10 +71,12 @@ class Station(SpecModel):
 
 
 class ScaleBar(SpecModel):
-    """A bar of known length between two targets, which fixes the network scale."""
+    """A bar of calibrated length whose two end marks are sighted too; it fixes the network's scale."""
 
     length: Length = Field(gt=0.0)
-    noise: Length = Field(0.0, ge=0.0)
+    noise: Length = Field(0.01, gt=0.0, description="uncertainty of the calibrated length")
+    end1: Point = Field(description="approximate position of the first mark, instrument frame")
+    end2: Point = Field(description="approximate position of the second mark, instrument frame")
 
 
 class Theodolite(SpecModel):
@@ -84,9 +86,8 @@ class Theodolite(SpecModel):
     stations: dict[str, Station] = Field(min_length=1)
     targets: list[str] = Field(min_length=1, description="names of robot targets sighted")
     robot_base: Pose = Pose()
-    noise: Angle = Field(ge=0.0, description="angle noise sigma (arc-seconds typically)")
+    noise: Angle = Field(gt=0.0, description="angle noise sigma (arc-seconds typically)")
     scale_bar: ScaleBar | None = None
-    scale: ScaleParam = fixed(1.0)
 
 
 class Tracker(SpecModel):
@@ -95,9 +96,9 @@ class Tracker(SpecModel):
     type: Literal["tracker"]
     targets: list[str] = Field(min_length=1, description="names of robot targets measured")
     robot_base: Pose = Pose()
-    noise: Length = Field(ge=0.0, description="position noise sigma per coordinate")
+    noise: Length = Field(gt=0.0, description="position noise sigma per coordinate")
     orientation: bool = False
-    orientation_noise: Angle | None = Field(None, ge=0.0)
+    orientation_noise: Angle | None = Field(None, gt=0.0)
     scale: ScaleParam = fixed(1.0)
 
 

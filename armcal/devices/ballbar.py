@@ -1,0 +1,63 @@
+"""Telescopic ball-bar: centre-to-centre length from a fixed pivot to a sphere on the robot (Goswami).
+
+A key is (pivot, sphere, extension rod or None). The instrument reports its
+nominal length plus the LVDT displacement, so a bar whose true length differs
+from the nominal by delta reads the distance minus delta: y = |s - p| + L0 - L.
+Only lengths within the LVDT travel around the bar's mid-travel length are readable.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+import casadi as ca
+import numpy as np
+
+from armcal.devices.base import Channel, DeviceModel, Key, symbols
+from armcal.kinematics.params import ParameterInfo, ParameterSet, pose_entries
+from armcal.spec.device import BallBar
+
+
+class BallBarModel(DeviceModel):
+    type = "ballbar"
+
+    def __init__(self, spec: BallBar):
+        self.spec = spec
+        entries = []
+        for name, point in spec.pivots.items():
+            entries += pose_entries(f"pivot.{name}", point, ("x", "y", "z"))
+        length = spec.length
+        entries.append(ParameterInfo("bar.length", "length", length.value, length.vary, length.min, length.max))
+        self.parameters = ParameterSet(tuple(entries))
+
+    def channels(self, key: Key) -> tuple[Channel, ...]:
+        return (Channel("length", "length"),)
+
+    def target(self, key: Key) -> str | None:
+        return key[1]
+
+    def extension(self, key: Key) -> float:
+        """Length of the extension rod of a key (0 without one)."""
+        return self.spec.extension_rods[key[2]] if key[2] else 0.0
+
+    def mid_travel_length(self, key: Key) -> float:
+        """Nominal centre-to-centre length at mid-travel, with the key's extension rod."""
+        return self.spec.length.value + self.extension(key)
+
+    @cache
+    def geometry(self, key: Key) -> ca.Function:
+        pivot, _, _ = key
+        pose = ca.SX.sym("T", 4, 4)
+        pd = ca.SX.sym("pd", len(self.parameters))
+        sym = symbols(self.parameters, pd)
+        centre = ca.vertcat(*(sym[f"pivot.{pivot}.{c}"] for c in "xyz"))
+        reading = ca.norm_2(pose[:3, 3] - centre) + self.spec.length.value - sym["bar.length"]
+        return ca.Function("g_ballbar", [pose, pd], [reading], ["T", "pd"], ["y"])
+
+    def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
+        return np.full(np.shape(np.atleast_2d(readings)), self.spec.noise)
+
+    def measurable(self, key: Key, readings: np.ndarray) -> np.ndarray:
+        """Within the LVDT travel: |length - mid-travel length| <= travel / 2."""
+        readings = np.atleast_2d(readings)
+        return np.abs(readings[:, 0] - self.mid_travel_length(key)) <= self.spec.travel / 2

@@ -1,0 +1,100 @@
+"""What every measurement model provides, and its composition with the robot's kinematics.
+
+A device model maps the pose of a measured point in the robot base frame and
+the device parameters to readings: g(T, p_device). Samples are grouped by a
+key (which target, pivot, station...); h(q, p_robot, p_device) = g(fk(q, p_robot), p_device)
+is one CasADi Function per key, evaluated for all samples of the key at once.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from armcal.kinematics.compiler import KinematicModel
+from armcal.kinematics.params import ParameterSet
+
+Key = tuple[str | None, ...]
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One reading of a sample: its CSV column and kind (length or angle)."""
+
+    name: str
+    kind: str
+
+
+class DeviceModel(ABC):
+    """A measuring instrument as a function of the measured pose and its own parameters."""
+
+    type: str
+    parameters: ParameterSet
+
+    @abstractmethod
+    def channels(self, key: Key) -> tuple[Channel, ...]:
+        """The readings of one sample of this key."""
+
+    @abstractmethod
+    def target(self, key: Key) -> str | None:
+        """The robot target measured by samples of this key (None: not on the robot)."""
+
+    @abstractmethod
+    def geometry(self, key: Key) -> ca.Function:
+        """g(T[4x4] pose of the target in the robot base frame, pd) -> readings."""
+
+    @abstractmethod
+    def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
+        """Standard deviation of each reading (N, channels) from the device's noise model."""
+
+    def measurable(self, key: Key, readings: np.ndarray) -> np.ndarray:
+        """Which samples the instrument can read at all (N,) - every one unless it says otherwise."""
+        return np.ones(len(readings), dtype=bool)
+
+    def visible(self, key: Key, poses: np.ndarray, pd: np.ndarray | None = None) -> np.ndarray:
+        """Which true target poses (N, 4, 4) give a valid reading (N,)."""
+        return self.measurable(key, self.evaluate(key, poses, pd))
+
+    def measurement_function(self, kinematics: KinematicModel, key: Key) -> ca.Function:
+        """h(q, p, pd) = g(fk_target(q, p), pd) for the samples of one key."""
+        q = ca.SX.sym("q", kinematics.dof)
+        p = ca.SX.sym("p", len(kinematics.parameters))
+        pd = ca.SX.sym("pd", len(self.parameters))
+        name = self.target(key)
+        pose = kinematics.targets[name](q, p) if name is not None else ca.SX.eye(4)
+        return ca.Function("h", [q, p, pd], [self.geometry(key)(pose, pd)], ["q", "p", "pd"], ["y"])
+
+    def predict(
+        self, kinematics: KinematicModel, key: Key, Q: np.ndarray, p: np.ndarray | None = None, pd: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Readings (N, channels) of N samples of one key, one mapped call."""
+        Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        p = kinematics.parameter_vector(p)
+        pd = self.parameters.nominal if pd is None else np.asarray(pd, dtype=float)
+        mapped = self.measurement_function(kinematics, key).map(len(Q))
+        return np.array(mapped(Q.T, p, pd)).T
+
+    def evaluate(self, key: Key, poses: np.ndarray, pd: np.ndarray | None = None) -> np.ndarray:
+        """Readings (N, channels) for given target poses (N, 4, 4), e.g. of a simulated true robot."""
+        pd = self.parameters.nominal if pd is None else np.asarray(pd, dtype=float)
+        poses = np.asarray(poses, dtype=float)
+        side_by_side = poses.transpose(1, 0, 2).reshape(4, 4 * len(poses))
+        return np.array(self.geometry(key).map(len(poses))(side_by_side, pd)).T
+
+
+def symbols(parameters: ParameterSet, pd: ca.SX) -> dict[str, ca.SX]:
+    """Name -> element of the device parameter symbol."""
+    return dict(zip(parameters.names, ca.vertsplit(pd)))
+
+
+def position(pose: ca.SX) -> ca.SX:
+    """The translation column of a 4x4 pose."""
+    return pose[:3, 3]
+
+
+def transform_point(frame, point):
+    """frame (4x4) applied to a 3-vector."""
+    return ca.mtimes(frame[:3, :3], point) + frame[:3, 3]

@@ -1,0 +1,71 @@
+"""Theodolite network: azimuth and elevation of a target seen from each station.
+
+A key is (station, target). A target seen from a station frame at (x, y, z):
+azimuth = atan2(y, x), elevation = atan2(z, sqrt(x^2 + y^2)). Angles fix the
+network only up to scale; a scale bar's two marks, sighted like targets (key
+(station, "scale_bar.end1"|"scale_bar.end2")), plus its calibrated length (key
+("scale_bar",), one reading) fix it.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+import casadi as ca
+import numpy as np
+
+from armcal.devices.base import Channel, DeviceModel, Key, symbols, transform_point
+from armcal.kinematics.compiler import pose_from_symbols
+from armcal.kinematics.params import ParameterSet, pose_entries
+from armcal.spec.device import Theodolite
+
+BAR_ENDS = ("scale_bar.end1", "scale_bar.end2")
+BAR_LENGTH: Key = ("scale_bar",)
+
+
+def _inverse(frame):
+    R, p = frame[:3, :3], frame[:3, 3]
+    return ca.vertcat(ca.horzcat(R.T, -ca.mtimes(R.T, p)), ca.horzcat(0, 0, 0, 1))
+
+
+class TheodoliteModel(DeviceModel):
+    type = "theodolite"
+
+    def __init__(self, spec: Theodolite):
+        self.spec = spec
+        entries = pose_entries("robot_base", spec.robot_base)
+        for name, station in spec.stations.items():
+            entries += pose_entries(f"station.{name}", station.pose)
+        if spec.scale_bar is not None:
+            for end, point in zip(BAR_ENDS, (spec.scale_bar.end1, spec.scale_bar.end2)):
+                entries += pose_entries(end, point, ("x", "y", "z"))
+        self.parameters = ParameterSet(tuple(entries))
+
+    def channels(self, key: Key) -> tuple[Channel, ...]:
+        if key == BAR_LENGTH:
+            return (Channel("length", "length"),)
+        return (Channel("azimuth", "angle"), Channel("elevation", "angle"))
+
+    def target(self, key: Key) -> str | None:
+        return None if key == BAR_LENGTH or key[1] in BAR_ENDS else key[1]
+
+    @cache
+    def geometry(self, key: Key) -> ca.Function:
+        pose = ca.SX.sym("T", 4, 4)
+        pd = ca.SX.sym("pd", len(self.parameters))
+        sym = symbols(self.parameters, pd)
+        end = lambda name: ca.vertcat(*(sym[f"{name}.{c}"] for c in "xyz"))  # noqa: E731
+        if key == BAR_LENGTH:
+            readings = ca.norm_2(end(BAR_ENDS[1]) - end(BAR_ENDS[0]))
+        else:
+            station, target = key
+            world = end(target) if target in BAR_ENDS else transform_point(pose_from_symbols(sym, "robot_base"), pose[:3, 3])
+            local = transform_point(_inverse(pose_from_symbols(sym, f"station.{station}")), world)
+            readings = ca.vertcat(ca.atan2(local[1], local[0]), ca.atan2(local[2], ca.sqrt(local[0] ** 2 + local[1] ** 2)))
+        return ca.Function("g_theodolite", [pose, pd], [readings], ["T", "pd"], ["y"])
+
+    def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
+        shape = np.shape(np.atleast_2d(readings))
+        if key == BAR_LENGTH:
+            return np.full(shape, self.spec.scale_bar.noise)
+        return np.full(shape, self.spec.noise)

@@ -1,0 +1,64 @@
+"""Laser tracker (or CMM, or any 3D point device): a target's position in the instrument frame.
+
+A key is (target,). Readings: x, y, z = scale * (P p) with P the robot base in
+the instrument frame; with ``orientation``, also rx, ry, rz, the intrinsic XYZ
+Euler angles of the target frame in the instrument frame (R = Rx Ry Rz).
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+import casadi as ca
+import numpy as np
+
+from armcal.devices.base import Channel, DeviceModel, Key, symbols
+from armcal.kinematics.compiler import pose_from_symbols
+from armcal.kinematics.params import ParameterInfo, ParameterSet, pose_entries
+from armcal.spec.device import Tracker
+
+POSITION = tuple(Channel(c, "length") for c in ("x", "y", "z"))
+ORIENTATION = tuple(Channel(c, "angle") for c in ("rx", "ry", "rz"))
+
+
+def intrinsic_xyz(R):
+    """(rx, ry, rz) with R = Rot(x, rx) Rot(y, ry) Rot(z, rz); ry in [-pi/2, pi/2]."""
+    rx = ca.atan2(-R[1, 2], R[2, 2])
+    ry = ca.asin(ca.fmin(ca.fmax(R[0, 2], -1), 1))
+    rz = ca.atan2(-R[0, 1], R[0, 0])
+    return rx, ry, rz
+
+
+class TrackerModel(DeviceModel):
+    type = "tracker"
+
+    def __init__(self, spec: Tracker):
+        self.spec = spec
+        entries = pose_entries("robot_base", spec.robot_base)
+        scale = spec.scale
+        entries.append(ParameterInfo("tracker.scale", "scale", scale.value, scale.vary, scale.min, scale.max))
+        self.parameters = ParameterSet(tuple(entries))
+
+    def channels(self, key: Key) -> tuple[Channel, ...]:
+        return POSITION + (ORIENTATION if self.spec.orientation else ())
+
+    def target(self, key: Key) -> str | None:
+        return key[0]
+
+    @cache
+    def geometry(self, key: Key) -> ca.Function:
+        pose = ca.SX.sym("T", 4, 4)
+        pd = ca.SX.sym("pd", len(self.parameters))
+        sym = symbols(self.parameters, pd)
+        seen = ca.mtimes(pose_from_symbols(sym, "robot_base"), pose)
+        readings = [sym["tracker.scale"] * seen[:3, 3]]
+        if self.spec.orientation:
+            readings += list(intrinsic_xyz(seen[:3, :3]))
+        return ca.Function("g_tracker", [pose, pd], [ca.vertcat(*readings)], ["T", "pd"], ["y"])
+
+    def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
+        readings = np.atleast_2d(readings)
+        sigma = np.full(readings.shape, self.spec.noise)
+        if self.spec.orientation:
+            sigma[:, 3:] = self.spec.orientation_noise or self.spec.noise / 1000.0
+        return sigma

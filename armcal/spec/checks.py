@@ -10,7 +10,7 @@ from collections.abc import Iterator
 
 from armcal.spec.device import BallBar, SonicDigitizer, Theodolite, Tracker
 from armcal.spec.model import Spec
-from armcal.spec.procedure import CirclePoint, Shells
+from armcal.spec.procedure import CirclePoint, Poses, Shells
 from armcal.spec.robot import SixParameterRobot
 from armcal.spec.sections import PivotOffset, RangeBias
 
@@ -75,6 +75,11 @@ def _procedures(spec: Spec) -> Iterator[Problem]:
             yield from _circle_point(spec, procedure, (key,))
         elif isinstance(procedure, Shells):
             yield from _shells(spec, procedure, (key,))
+        elif isinstance(procedure, Poses):
+            if not isinstance(spec.device, Tracker | Theodolite):
+                yield (key, "type"), f"a poses procedure needs a tracker or theodolite, not {spec.device.type}"
+            if (procedure.file is None) == (procedure.count is None):
+                yield (key,), "give either a pose file (file) or a number of random poses (count)"
 
 
 def _circle_point(spec: Spec, procedure: CirclePoint, loc: Loc) -> Iterator[Problem]:

@@ -1,0 +1,1 @@
+"""Measured data files: their columns, reading with located errors, writing."""

@@ -1,0 +1,40 @@
+"""Measured (or simulated) samples in memory, internal units (mm, rad)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from armcal.devices.base import Key
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """One data file: per sample its key, joint readings, device readings and extra columns.
+
+    ``readings`` maps a channel (CSV column such as ``length`` or ``s_A``) to an
+    (N,) array, NaN where a sample has no such reading. ``extras`` holds the
+    optional columns (``t``, ``temperature``, ``dir`` (N, n), calibration-rod
+    ranges). ``rows`` are the file's line numbers, so results can point back to
+    the data.
+    """
+
+    keys: tuple[Key, ...]
+    q: np.ndarray
+    readings: dict[str, np.ndarray]
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+    rows: np.ndarray | None = None
+    source: Path | None = None
+    sample: tuple[str, ...] | None = None
+
+    def __len__(self) -> int:
+        return len(self.keys)
+
+    def groups(self) -> dict[Key, np.ndarray]:
+        """Sample indices of each key, in order of first appearance."""
+        out: dict[Key, list[int]] = {}
+        for i, key in enumerate(self.keys):
+            out.setdefault(key, []).append(i)
+        return {key: np.array(rows) for key, rows in out.items()}

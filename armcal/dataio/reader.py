@@ -1,0 +1,195 @@
+"""Read a data file against its spec: every problem named by file, row (line) and column."""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+
+from armcal.dataio.columns import Layout, layout
+from armcal.dataio.measurements import Measurements
+from armcal.devices.theodolite import BAR_ENDS
+from armcal.errors import Issue, SpecError, UserError
+from armcal.spec.model import Spec
+from armcal.units import factor
+
+MAX_ISSUES = 20
+
+
+class _Problems:
+    def __init__(self, path: Path):
+        self.path = path
+        self.issues: list[Issue] = []
+
+    def add(self, line: int, column: int | None, field: str, message: str) -> None:
+        if len(self.issues) < MAX_ISSUES:
+            self.issues.append(Issue(self.path, line, column, field, message))
+
+    def raise_if_any(self) -> None:
+        if self.issues:
+            raise SpecError(self.issues)
+
+
+def _table(path: Path) -> tuple[list[str], list[list[str]]]:
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise UserError(f"{path}: data file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: cannot read the data file ({exc})") from None
+    lines = text.splitlines()
+    if not lines or not lines[0].strip():
+        raise SpecError([Issue(path, 1, None, "", "the file is empty; a header row is expected")])
+    if ";" in lines[0] and "," not in lines[0]:
+        raise SpecError(
+            [Issue(path, 1, None, "", "columns are separated by ';': armcal reads comma-separated files with '.' as decimal mark")]
+        )
+    rows = list(csv.reader(io.StringIO(text)))
+    return [h.strip() for h in rows[0]], rows[1:]
+
+
+def _header(header: list[str], cols: Layout, problems: _Problems) -> Layout:
+    seen: set[str] = set()
+    for index, name in enumerate(header, start=1):
+        if name in seen:
+            problems.add(1, index, name, f"column '{name}' appears twice")
+        seen.add(name)
+        if name not in cols.known:
+            close = difflib.get_close_matches(name, list(cols.known), n=1)
+            hint = f" Did you mean '{close[0]}'?" if close else f" Known columns: {', '.join(cols.known)}."
+            problems.add(1, index, name, f"unknown column '{name}'.{hint}")
+    missing = [c for c in cols.required if c not in seen]
+    if missing:
+        problems.add(1, None, "", f"missing column{'s' if len(missing) > 1 else ''}: {', '.join(missing)}")
+    problems.raise_if_any()
+    return cols
+
+
+def _number(text: str, kind: str, spec: Spec) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text} is not a finite number")
+    if kind in ("length", "angle"):
+        value *= factor(kind, getattr(spec.robot.units, kind))
+    elif kind == "direction" and value not in (1.0, -1.0):
+        raise ValueError(f"a direction is +1 or -1, not {text}")
+    return value
+
+
+def _valid_names(spec: Spec) -> dict[str, set[str]]:
+    device = spec.device
+    names: dict[str, set[str]] = {"target": set(spec.robot.targets)}
+    if device.type == "ballbar":
+        names.update(pivot=set(device.pivots), sphere=set(device.spheres), extension=set(device.extension_rods) | {""})
+    elif device.type == "theodolite":
+        names.update(station=set(device.stations), target=set(device.targets) | set(BAR_ENDS if device.scale_bar else ()))
+    else:
+        names["target"] = set(getattr(device, "targets", spec.robot.targets))
+    return names
+
+
+def _parse(path: Path, spec: Spec, cols: Layout, header: list[str], rows: list[list[str]], problems: _Problems):
+    """Numeric columns (internal units, NaN if empty) and text columns of every row, checked."""
+    index = {name: i for i, name in enumerate(header)}
+    names = _valid_names(spec)
+    values = {c: np.full(len(rows), np.nan) for c, k in cols.known.items() if k != "text" and c in index}
+    text = {c: [""] * len(rows) for c, k in cols.known.items() if k == "text" and c in index}
+    for r, row in enumerate(rows):
+        line = r + 2
+        if len(row) != len(header):
+            problems.add(line, None, "", f"{len(row)} fields, but the header has {len(header)}")
+            continue
+        on_robot = True
+        for column, kind in cols.known.items():
+            if column not in index:
+                continue
+            raw = row[index[column]].strip()
+            if kind == "text":
+                text[column][r] = raw
+                if column in names and raw not in names[column]:
+                    allowed = ", ".join(sorted(n for n in names[column] if n)) or "none"
+                    problems.add(line, index[column] + 1, column, f"'{raw}' is not a known {column} ({allowed})")
+                on_robot = on_robot and not (column == "target" and raw in BAR_ENDS)
+            elif raw == "":
+                if column in cols.required and not (column.startswith("q") and not on_robot):
+                    problems.add(line, index[column] + 1, column, "empty value")
+            else:
+                try:
+                    values[column][r] = _number(raw, kind, spec)
+                except ValueError as exc:
+                    message = str(exc) if "finite" in str(exc) or "direction" in str(exc) else f"'{raw}' is not a number"
+                    problems.add(line, index[column] + 1, column, message)
+        if on_robot:
+            _check_limits(spec, values, index, r, problems)
+    if "sample" in text:
+        _unique_samples(text["sample"], index["sample"] + 1, problems)
+    problems.raise_if_any()
+    return values, text
+
+
+def _check_limits(spec: Spec, values: dict, index: dict, r: int, problems: _Problems) -> None:
+    for i, joint in enumerate(spec.robot.joints, start=1):
+        value = values[f"q{i}"][r]
+        low, high = joint.limits
+        if not np.isnan(value) and not low <= value <= high:
+            kind = "angle" if joint.type == "revolute" else "length"
+            unit = getattr(spec.robot.units, kind)
+            shown = value / factor(kind, unit)
+            problems.add(r + 2, index[f"q{i}"] + 1, f"q{i}", f"{shown:g} {unit} lies outside joint {i}'s limits")
+
+
+def _rows(path: Path, spec: Spec, make_layout) -> tuple[Layout, dict, dict, int]:
+    problems = _Problems(path)
+    header, rows = _table(path)
+    cols = _header(header, make_layout(header), problems)
+    if not rows:
+        raise SpecError([Issue(path, 2, None, "", "the file has a header but no data rows")])
+    values, text = _parse(path, spec, cols, header, rows, problems)
+    return cols, values, text, len(rows)
+
+
+def read_measurements(path: Path, spec: Spec) -> Measurements:
+    """Measurements of a data file, in internal units; SpecError lists the problems found."""
+    path = Path(path)
+    cols, values, text, count = _rows(path, spec, lambda header: layout(spec, header))
+    n = spec.robot.dof
+    readings = {c: values[c] for c in cols.required if c in values and not c.startswith("q")}
+    extras = {c: values[c] for c in values if c not in readings and not c.startswith(("q", "dir"))}
+    if "dir1" in values:
+        extras["dir"] = np.stack([values.get(f"dir{i}", np.zeros(count)) for i in range(1, n + 1)], axis=1)
+    return Measurements(
+        keys=_keys(spec, cols, text, count),
+        q=np.stack([values[f"q{i}"] for i in range(1, n + 1)], axis=1),
+        readings=readings,
+        extras=extras,
+        rows=np.arange(2, count + 2),
+        source=path,
+        sample=tuple(text["sample"]) if "sample" in text else None,
+    )
+
+
+def read_joint_file(path: Path, spec: Spec) -> np.ndarray:
+    """Joint values (N, n) from a pose list with columns q1..qN (and optionally sample)."""
+    joints = {f"q{i}": ("angle" if j.type == "revolute" else "length") for i, j in enumerate(spec.robot.joints, start=1)}
+    _, values, _, _ = _rows(Path(path), spec, lambda header: Layout((), joints, {"sample": "text"}))
+    return np.stack([values[c] for c in joints], axis=1)
+
+
+def _unique_samples(samples: list[str], column: int, problems: _Problems) -> None:
+    first: dict[str, int] = {}
+    for r, sample in enumerate(samples):
+        if sample in first:
+            problems.add(r + 2, column, "sample", f"sample '{sample}' repeats line {first[sample]}")
+        else:
+            first[sample] = r + 2
+
+
+def _keys(spec: Spec, cols: Layout, text: dict[str, list[str]], count: int) -> tuple:
+    if spec.device.type == "ballbar":
+        extension = text.get("extension", [""] * count)
+        return tuple((p, s, e or None) for p, s, e in zip(text["pivot"], text["sphere"], extension))
+    return tuple(zip(*(text[c] for c in cols.key_columns)))

@@ -1,0 +1,59 @@
+"""Write measurements as a contract CSV in the spec's units (deterministic text, atomic write)."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+
+from armcal.dataio.columns import layout
+from armcal.dataio.measurements import Measurements
+from armcal.fileio import write_text_atomic
+from armcal.spec.model import Spec
+from armcal.units import factor
+
+
+def _format(value: float, kind: str, spec: Spec) -> str:
+    if np.isnan(value):
+        return ""
+    if kind in ("length", "angle"):
+        value = value / factor(kind, getattr(spec.robot.units, kind))
+    if kind == "direction":
+        return f"{int(value):+d}"
+    return f"{value:.10g}"
+
+
+def measurements_csv(measurements: Measurements, spec: Spec) -> str:
+    """The CSV text: sample, key columns, q1..qN, readings, then the optional columns present."""
+    channels = list(measurements.readings)
+    cols = layout(spec, channels)
+    n = spec.robot.dof
+    extra = [c for c in measurements.extras if c != "dir"]
+    header = ["sample", *cols.key_columns]
+    has_extension = spec.device.type == "ballbar" and any(k[2] for k in measurements.keys)
+    if has_extension:
+        header.append("extension")
+    header += [f"q{i}" for i in range(1, n + 1)] + channels + extra
+    if "dir" in measurements.extras:
+        header += [f"dir{i}" for i in range(1, n + 1)]
+    out = io.StringIO()
+    out.write(",".join(header) + "\n")
+    kinds = cols.known
+    for r, key in enumerate(measurements.keys):
+        sample = measurements.sample[r] if measurements.sample else str(r + 1)
+        fields = [sample, *(key[i] or "" for i in range(len(cols.key_columns)))]
+        if has_extension:
+            fields.append(key[2] or "")
+        fields += [_format(v, kinds[f"q{i + 1}"], spec) for i, v in enumerate(measurements.q[r])]
+        fields += [_format(measurements.readings[c][r], kinds[c], spec) for c in channels]
+        fields += [_format(measurements.extras[c][r], kinds.get(c, "number"), spec) for c in extra]
+        if "dir" in measurements.extras:
+            fields += [_format(v, "direction", spec) for v in measurements.extras["dir"][r]]
+        out.write(",".join(fields) + "\n")
+    return out.getvalue()
+
+
+def write_measurements(path: Path, measurements: Measurements, spec: Spec) -> None:
+    """Write the CSV whole, or leave any earlier file untouched."""
+    write_text_atomic(path, measurements_csv(measurements, spec))

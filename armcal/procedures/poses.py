@@ -1,0 +1,58 @@
+"""Pose lists: random configurations within the joint limits, or joint values from a CSV file.
+
+Every pose is measured on every key the device reads at a pose (each tracker
+target; each theodolite station and target); keys where the instrument cannot
+read the target are dropped. A theodolite scale bar is sighted from every
+station and its length enters once.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from armcal.dataio.reader import read_joint_file
+from armcal.devices.base import DeviceModel, Key
+from armcal.devices.theodolite import BAR_ENDS, BAR_LENGTH
+from armcal.kinematics.compiler import KinematicModel
+from armcal.procedures.plan import Plan
+from armcal.spec.device import Theodolite, Tracker
+from armcal.spec.model import Spec
+from armcal.spec.procedure import Poses
+
+BAR_SIGHTINGS = 3  # repeated sightings of each scale-bar mark per station
+
+
+def pose_keys(device_spec) -> list[Key]:
+    """The keys read at every pose."""
+    if isinstance(device_spec, Theodolite):
+        return [(station, target) for station in device_spec.stations for target in device_spec.targets]
+    if isinstance(device_spec, Tracker):
+        return [(target,) for target in device_spec.targets]
+    raise ValueError(f"a poses procedure needs a tracker or theodolite, not {device_spec.type}")
+
+
+def plan_poses(procedure: Poses, kinematics: KinematicModel, device: DeviceModel, spec: Spec, spec_dir: Path) -> Plan:
+    device_spec = spec.device
+    if procedure.file is not None:
+        Q = read_joint_file(spec_dir / procedure.file, spec)
+    else:
+        rng = np.random.default_rng(procedure.seed)
+        Q = rng.uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (procedure.count, kinematics.dof))
+    keys: list[Key] = []
+    rows: list[np.ndarray] = []
+    dropped: dict[str, int] = {}
+    for key in pose_keys(device_spec):
+        visible = device.visible(key, kinematics.target_poses(device.target(key), Q))
+        keys += [key] * int(visible.sum())
+        rows.append(Q[visible])
+        if (~visible).any():
+            dropped[f"{'/'.join(key)} not visible"] = int((~visible).sum())
+    plan = Plan(tuple(keys), np.concatenate(rows), dropped)
+    if isinstance(device_spec, Theodolite) and device_spec.scale_bar is not None:
+        bar_keys = [(station, end) for station in device_spec.stations for end in BAR_ENDS] * BAR_SIGHTINGS
+        bar_keys.append(BAR_LENGTH)
+        zero = np.zeros((len(bar_keys), kinematics.dof))
+        plan = Plan.join([plan, Plan(tuple(bar_keys), zero)])
+    return plan

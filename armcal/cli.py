@@ -65,6 +65,24 @@ def fk(
 
 
 @app.command()
+@user_errors
+def simulate(
+    spec: SpecArg,
+    out: Annotated[Path, typer.Option("--out", help="Folder for the CSV files and truth.json.")],
+) -> None:
+    """Write the spec's calibration and validation data, measured on a simulated true robot."""
+    from armcal.simulate import write_simulation
+    from armcal.spec import load_spec
+
+    campaign, written = write_simulation(load_spec(spec), out)
+    for path in written:
+        typer.echo(f"wrote {path}")
+    for name, dropped in campaign.dropped.items():
+        for reason, count in dropped.items():
+            typer.echo(f"  {name}: {count} planned poses dropped ({reason})")
+
+
+@app.command()
 def version() -> None:
     """Print armcal's version."""
     typer.echo(__version__)

@@ -103,7 +103,7 @@ def _parse(path: Path, spec: Spec, cols: Layout, header: list[str], rows: list[l
         if len(row) != len(header):
             problems.add(line, None, "", f"{len(row)} fields, but the header has {len(header)}")
             continue
-        on_robot = True
+        on_robot = "target" not in index or row[index["target"]].strip() not in BAR_ENDS
         for column, kind in cols.known.items():
             if column not in index:
                 continue
@@ -113,7 +113,6 @@ def _parse(path: Path, spec: Spec, cols: Layout, header: list[str], rows: list[l
                 if column in names and raw not in names[column]:
                     allowed = ", ".join(sorted(n for n in names[column] if n)) or "none"
                     problems.add(line, index[column] + 1, column, f"'{raw}' is not a known {column} ({allowed})")
-                on_robot = on_robot and not (column == "target" and raw in BAR_ENDS)
             elif raw == "":
                 if column in cols.required and not (column.startswith("q") and not on_robot):
                     problems.add(line, index[column] + 1, column, "empty value")
@@ -157,8 +156,8 @@ def read_measurements(path: Path, spec: Spec) -> Measurements:
     path = Path(path)
     cols, values, text, count = _rows(path, spec, lambda header: layout(spec, header))
     n = spec.robot.dof
-    readings = {c: values[c] for c in cols.required if c in values and not c.startswith("q")}
-    extras = {c: values[c] for c in values if c not in readings and not c.startswith(("q", "dir"))}
+    extras = {c: values[c] for c in values if c in ("t", "temperature") or c.startswith("rod_")}
+    readings = {c: values[c] for c in values if c not in extras and not c.startswith(("q", "dir"))}
     if "dir1" in values:
         extras["dir"] = np.stack([values.get(f"dir{i}", np.zeros(count)) for i in range(1, n + 1)], axis=1)
     return Measurements(

@@ -31,6 +31,7 @@ class KinematicModel:
     fk: ca.Function  # (q, p) -> 4x4 base-to-tool
     frames: ca.Function  # (q, p) -> 4 x 4(n+1): F_0 .. F_n side by side
     targets: dict[str, ca.Function]  # (q, p) -> 4x4 base-to-target
+    target_links: dict[str, int]  # the link each target rides on
 
     @property
     def dof(self) -> int:
@@ -46,8 +47,13 @@ class KinematicModel:
 
     def link_frames(self, q: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
         """Frames F_0 .. F_n (n+1, 4, 4) at one configuration."""
-        out = np.array(self.frames(np.asarray(q, dtype=float), self.parameter_vector(p)))
-        return out.reshape(4, self.dof + 1, 4).transpose(1, 0, 2)
+        return self.link_frames_batch(np.asarray(q, dtype=float)[None], p)[0]
+
+    def link_frames_batch(self, Q: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
+        """Frames F_0 .. F_n (N, n+1, 4, 4) at N configurations, one call."""
+        Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        out = np.array(self.frames.map(len(Q))(Q.T, self.parameter_vector(p)))
+        return out.reshape(4, len(Q), self.dof + 1, 4).transpose(1, 2, 0, 3)
 
     def parameter_vector(self, p: np.ndarray | None = None) -> np.ndarray:
         """p itself, or the nominal parameter vector when p is None."""
@@ -92,6 +98,7 @@ def compile_robot(robot: RobotBase) -> KinematicModel:
         fk=ca.Function("fk", [q, p], [tool], ["q", "p"], ["T"]),
         frames=ca.Function("frames", [q, p], [ca.horzcat(*frames)], ["q", "p"], ["F"]),
         targets=targets,
+        target_links={name: target.link for name, target in robot.targets.items()},
     )
 
 

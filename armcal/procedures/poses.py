@@ -14,7 +14,7 @@ import numpy as np
 
 from armcal.dataio.reader import read_joint_file
 from armcal.devices.base import DeviceModel, Key
-from armcal.devices.theodolite import BAR_ENDS, BAR_LENGTH
+from armcal.devices.theodolite import BAR_ENDS
 from armcal.kinematics.compiler import KinematicModel
 from armcal.procedures.plan import Plan
 from armcal.spec.device import Theodolite, Tracker
@@ -52,7 +52,6 @@ def plan_poses(procedure: Poses, kinematics: KinematicModel, device: DeviceModel
     plan = Plan(tuple(keys), np.concatenate(rows), dropped)
     if isinstance(device_spec, Theodolite) and device_spec.scale_bar is not None:
         bar_keys = [(station, end) for station in device_spec.stations for end in BAR_ENDS] * BAR_SIGHTINGS
-        bar_keys.append(BAR_LENGTH)
         zero = np.zeros((len(bar_keys), kinematics.dof))
         plan = Plan.join([plan, Plan(tuple(bar_keys), zero)])
     return plan

@@ -1,0 +1,166 @@
+"""A simulated measuring campaign: plan the poses, read the true robot with the true instrument.
+
+Readings are the instrument's geometry applied to the true robot's target
+poses and the instrument's true parameters, with its hidden effects, its
+physics (the sonic digitizer's speed of sound, App. E) and, unless
+``simulate.noise`` is false, its noise model (sigma = a * range + b (7.9),
+quantised to the resolution and averaged over N_avg readings for the sonic
+digitizer; a constant sigma for the others).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from armcal.dataio.measurements import Measurements
+from armcal.devices import device_model
+from armcal.devices.base import DeviceModel
+from armcal.devices.sonic import SonicModel
+from armcal.devices.sound import raw_range, speed_of_sound, vertical
+from armcal.kinematics.compiler import compile_robot
+from armcal.procedures import Plan, plan
+from armcal.simulate import effects as hidden
+from armcal.simulate.truth import TrueRobot
+from armcal.spec import sections as fx
+from armcal.spec.model import Spec
+
+ROOM_TEMPERATURE = 21.1  # degC, 70 F: the sonic digitizer's nominal conditions
+ROD_NEAR = 300.0  # mm from a rod's microphone to its near sparker
+
+
+@dataclass(frozen=True)
+class Campaign:
+    calibration: Measurements
+    validation: Measurements | None
+    truth: dict
+    dropped: dict[str, dict[str, int]]
+
+
+def simulate_campaign(spec: Spec, spec_dir: Path) -> Campaign:
+    """Calibration and validation data of a spec's procedures, from one random true robot."""
+    settings = spec.simulate or fx.Simulate()
+    truth_rng, *noise_rngs = (np.random.default_rng(s) for s in np.random.SeedSequence(settings.seed).spawn(3))
+    kinematics = compile_robot(spec.robot)
+    device = device_model(spec)
+    robot = TrueRobot.draw(kinematics, settings, truth_rng)
+    pd = _true_device_parameters(device, settings, truth_rng)
+    sets, dropped, start = [], {}, 0.0
+    for name, procedure, rng in (("calibration", spec.procedure, noise_rngs[0]), ("validation", spec.validation, noise_rngs[1])):
+        if procedure is None:
+            sets.append(None)
+            continue
+        planned = plan(procedure, kinematics, device, spec, spec_dir)
+        measurements = _measure(spec, settings, robot, device, pd, planned, rng, start)
+        start = float(measurements.extras["t"][-1]) + settings.time_step
+        sets.append(measurements)
+        dropped[name] = planned.dropped
+    truth = {**robot.describe(), "device_parameters": dict(zip(device.parameters.names, pd.tolist()))}
+    return Campaign(sets[0], sets[1], truth, dropped)
+
+
+def _true_device_parameters(device: DeviceModel, settings: fx.Simulate, rng: np.random.Generator) -> np.ndarray:
+    """Free instrument parameters off their nominal by sigma_p / sigma_o; pivot offsets added."""
+    pd = device.parameters.nominal.copy()
+    for i, entry in enumerate(device.parameters.entries):
+        if entry.free and entry.kind != "scale":
+            pd[i] += rng.normal() * (settings.sigma_p if entry.kind == "length" else settings.sigma_o)
+    for effect in settings.effects:
+        if isinstance(effect, fx.PivotOffset):
+            for c in "xyz":
+                pd[device.parameters.index(f"pivot.{effect.pivot}.{c}")] += getattr(effect, c).value
+    return pd
+
+
+def _extras(settings: fx.Simulate, count: int, start: float, rng: np.random.Generator, n: int) -> dict:
+    extras = {"t": start + settings.time_step * np.arange(count)}
+    needed = hidden.needs(settings.effects)
+    if settings.temperature is not None or "temperature" in needed:
+        low, high = settings.temperature or (20.0, 25.0)
+        extras["temperature"] = np.linspace(low, high, count)
+    if "dir" in needed:
+        extras["dir"] = rng.choice([-1.0, 1.0], size=(count, n))
+    return extras
+
+
+def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned: Plan, rng, start: float) -> Measurements:
+    count = len(planned)
+    extras = _extras(settings, count, start, rng, robot.kinematics.dof)
+    channels = {c.name: c for key in dict.fromkeys(planned.keys) for c in device.channels(key)}
+    readings = {name: np.full(count, np.nan) for name in channels}
+    keep = np.ones(count, dtype=bool)
+    keys = np.empty(count, dtype=object)
+    keys[:] = planned.keys
+    q = planned.q.copy()
+    for key in dict.fromkeys(planned.keys):
+        rows = np.flatnonzero([k == key for k in planned.keys])
+        target = device.target(key)
+        group_extras = {name: value[rows] for name, value in extras.items()}
+        poses = robot.target_poses(target, planned.q[rows], group_extras) if target else np.repeat(np.eye(4)[None], len(rows), 0)
+        values = device.evaluate(key, poses, pd)
+        keep[rows] = device.visible(key, poses, pd)
+        values = _instrument_effects(settings.effects, device, key, values)
+        if isinstance(device, SonicModel):
+            values, rods = _sonic_physics(spec, settings, device, key, values, poses, pd, rng)
+            for name, column in rods.items():
+                readings.setdefault(name, np.full(count, np.nan))[rows] = column
+        elif settings.noise:
+            values = values + rng.normal(size=values.shape) * device.sigma(key, values)
+        if target is None:
+            q[rows] = np.nan  # not a robot pose: no joint readings
+        for c, channel in enumerate(device.channels(key)):
+            readings[channel.name][rows] = values[:, c]
+    return Measurements(
+        keys=tuple(keys[keep]),
+        q=q[keep],
+        readings={name: column[keep] for name, column in readings.items() if not name.startswith("rod_")},
+        extras={**{name: value[keep] for name, value in extras.items()}, **{n: c[keep] for n, c in readings.items() if n.startswith("rod_")}},
+    )
+
+
+def _instrument_effects(effects: list, device: DeviceModel, key, values: np.ndarray) -> np.ndarray:
+    """Scale, bias and bar-length offsets of the true instrument."""
+    names = [c.name for c in device.channels(key)]
+    values = values.copy()
+    for effect in effects:
+        if isinstance(effect, fx.SensorScale):
+            lengths = [i for i, c in enumerate(device.channels(key)) if c.kind == "length"]
+            values[:, lengths] *= 1.0 + effect.scale.value
+        elif isinstance(effect, fx.RangeBias) and f"s_{effect.microphone}" in names:
+            values[:, names.index(f"s_{effect.microphone}")] += effect.bias.value
+        elif isinstance(effect, fx.BallbarLength):
+            values[:, 0] += effect.offset.value
+    return values
+
+
+def _sonic_physics(spec, settings, device: SonicModel, key, distances, poses, pd, rng):
+    """Raw slant ranges through a vertically stratified air (B-3), N_avg noisy quantised readings averaged."""
+    sonic = spec.device
+    air = settings.temperature[0] if settings.temperature else ROOM_TEMPERATURE
+    microphones = device.nominal_microphones
+    up = vertical(microphones)
+    temperature = lambda height: air + sonic.temperature_gradient * height / 1000.0  # noqa: E731
+    target_speed = speed_of_sound(temperature(device._sensor_points(poses, pd) @ up))
+    raw = np.empty_like(distances)
+    for c, microphone in enumerate(device.microphones):
+        microphone_speed = speed_of_sound(temperature(microphones[microphone] @ up))
+        raw[:, c] = raw_range(distances[:, c], target_speed, microphone_speed, sonic.speed_of_sound)
+    rods = {}
+    for rod in sonic.calibration_rods:
+        speed = speed_of_sound(temperature(microphones[rod.microphone] @ up))
+        for i, distance in enumerate((ROD_NEAR, ROD_NEAR + rod.length), start=1):
+            rods[f"rod_{rod.microphone}_{i}"] = np.full(len(raw), raw_range(distance, speed, speed, sonic.speed_of_sound))
+    averaged = lambda values: _averaged_readings(device, values, rng) if settings.noise else values  # noqa: E731
+    return averaged(raw), {name: averaged(column[:, None])[:, 0] for name, column in rods.items()}
+
+
+def _averaged_readings(device: SonicModel, values: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Mean of N_avg readings, each with noise sigma(range) (7.9) and quantised to the resolution."""
+    sigma = device.spec.noise.a * values + device.spec.noise.b
+    readings = values[..., None] + rng.normal(size=(*values.shape, device.averaging)) * sigma[..., None]
+    resolution = device.spec.resolution
+    if resolution > 0:
+        readings = np.round(readings / resolution) * resolution
+    return readings.mean(axis=-1)

@@ -1,0 +1,90 @@
+"""The "true" robot of a simulation: the nominal chain with manufacturing errors and hidden effects.
+
+Stone's simulator (7.1)-(7.8) builds each PUMA link from its design values and
+small random errors (App. F.1): positional errors with sigma_p, orientational
+errors with sigma_o, encoder calibration errors with sigma_e. Generalised here
+to any chain: the base and every link transform A_i are followed by an error
+transform Trans(e1, e2, e3) Rot(x, e4) Rot(y, e5) Rot(z, e6), every joint reading
+carries an encoder offset error, and every free target position is off by
+sigma_p per coordinate. This model is never the one fitted.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from armcal.kinematics.compiler import KinematicModel
+from armcal.kinematics.transforms import compose, rot_x, rot_y, rot_z, trans
+from armcal.simulate import effects as hidden
+from armcal.spec.sections import Simulate
+
+
+def _error_transform(rng: np.random.Generator, sigma_p: float, sigma_o: float) -> np.ndarray:
+    e = rng.normal(size=6)
+    return compose(trans(*(sigma_p * e[:3])), rot_x(sigma_o * e[3]), rot_y(sigma_o * e[4]), rot_z(sigma_o * e[5]))
+
+
+@dataclass(frozen=True)
+class TrueRobot:
+    kinematics: KinematicModel
+    p: np.ndarray  # nominal parameters with the free target positions' errors
+    link_errors: np.ndarray  # (n+1, 4, 4): after the base, after each A_i
+    encoder_errors: np.ndarray  # (n,) mm / rad
+    effects: tuple  # hidden effects (spec effect models)
+
+    @staticmethod
+    def draw(kinematics: KinematicModel, settings: Simulate, rng: np.random.Generator) -> "TrueRobot":
+        """A random robot of the nominal design (Stone 7.2.2 with sigma_p, sigma_o, sigma_e)."""
+        n = kinematics.dof
+        link_errors = np.array([_error_transform(rng, settings.sigma_p, settings.sigma_o) for _ in range(n + 1)])
+        sigma_joint = np.array([settings.sigma_e if t == "revolute" else settings.sigma_p for t in kinematics.joint_types])
+        encoder_errors = sigma_joint * rng.normal(size=n)
+        p = kinematics.parameters.nominal.copy()
+        for i, entry in enumerate(kinematics.parameters.entries):
+            target_coordinate = entry.name.split(".")[0] in kinematics.targets and entry.kind == "length"
+            if target_coordinate and entry.free:
+                p[i] += settings.sigma_p * rng.normal()
+        return TrueRobot(kinematics, p, link_errors, encoder_errors, tuple(settings.effects))
+
+    def target_poses(self, name: str, Q: np.ndarray, extras: dict) -> np.ndarray:
+        """True poses (N, 4, 4) of a target at joint readings Q (N, n)."""
+        Q = np.atleast_2d(Q)
+        nominal_frames = self.kinematics.link_frames_batch(Q, self.p)
+        Q_true = Q + self.encoder_errors + hidden.joint_deviation(list(self.effects), Q, extras, nominal_frames)
+        frames = self.kinematics.link_frames_batch(Q_true, self.p)
+        scale = hidden.length_scale(list(self.effects), extras, len(Q))
+        true_frames = self._true_frames(frames, scale)
+        link = self.kinematics.target_links[name]
+        offset = np.einsum("nij,njk->nik", _inverse_batch(frames[:, link]), self.kinematics.target_poses(name, Q_true, self.p))
+        offset[:, :3, 3] *= scale[:, None]
+        return np.einsum("nij,njk->nik", true_frames[:, link], offset)
+
+    def _true_frames(self, frames: np.ndarray, scale: np.ndarray) -> np.ndarray:
+        """F'_0 = F_0 E_0, F'_i = F'_{i-1} A_i E_i with A_i = F_{i-1}^-1 F_i, lengths scaled."""
+        out = np.empty_like(frames)
+        out[:, 0] = frames[:, 0] @ self.link_errors[0]
+        for i in range(1, frames.shape[1]):
+            link = np.einsum("nij,njk->nik", _inverse_batch(frames[:, i - 1]), frames[:, i])
+            link[:, :3, 3] *= scale[:, None]
+            out[:, i] = np.einsum("nij,njk->nik", out[:, i - 1], link) @ self.link_errors[i]
+        return out
+
+    def describe(self) -> dict:
+        """The truth, for the record (truth.json)."""
+        return {
+            "encoder_errors": self.encoder_errors.tolist(),
+            "link_errors": [e.tolist() for e in self.link_errors],
+            "parameters": dict(zip(self.kinematics.parameters.names, self.p.tolist())),
+            "hidden_effects": [e.model_dump() for e in self.effects],
+        }
+
+
+def _inverse_batch(T: np.ndarray) -> np.ndarray:
+    out = np.zeros_like(T)
+    R = T[:, :3, :3]
+    out[:, :3, :3] = R.transpose(0, 2, 1)
+    out[:, :3, 3] = -np.einsum("nji,nj->ni", R, T[:, :3, 3])
+    out[:, 3, 3] = 1.0
+    return out

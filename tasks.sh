@@ -46,7 +46,7 @@ setup() { system_deps; venv; }
 
 demo() {
     setup
-    local spec=specs/puma560_dh.yaml
+    local spec=examples/puma560_sonic/spec.yaml
     "$VENV/bin/armcal" validate "$spec"
     "$VENV/bin/armcal" fk "$spec" --q "0,-90,180,0,0,0"
 }

@@ -77,9 +77,11 @@ def simulate(
     campaign, written = write_simulation(load_spec(spec), out)
     for path in written:
         typer.echo(f"wrote {path}")
-    for name, dropped in campaign.dropped.items():
-        for reason, count in dropped.items():
-            typer.echo(f"  {name}: {count} planned poses dropped ({reason})")
+    for name, data in (("calibration", campaign.calibration), ("validation", campaign.validation)):
+        if data is not None:
+            dropped = campaign.dropped.get(name, {})
+            why = f", {sum(dropped.values())} planned poses dropped ({'; '.join(dropped)})" if dropped else ""
+            typer.echo(f"  {name}: {len(data)} samples{why}")
 
 
 @app.command()

@@ -85,6 +85,23 @@ def simulate(
 
 
 @app.command()
+@user_errors
+def run(
+    spec: SpecArg,
+    out: Annotated[Path | None, typer.Option("--out", help="Output folder (default: out/<spec stem>/ beside the spec).")] = None,
+    no_pdf: Annotated[bool, typer.Option("--no-pdf", help="Skip the PDF certificate.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing certificate.")] = False,
+) -> None:
+    """Identify the robot from the spec's data and write results.json and calibrated.yaml."""
+    from armcal.pipeline import run as run_pipeline
+    from armcal.summary import run_summary
+
+    outcome = run_pipeline(spec, out, force)
+    typer.echo(run_summary(outcome))
+    raise typer.Exit(outcome.exit_code)
+
+
+@app.command()
 def version() -> None:
     """Print armcal's version."""
     typer.echo(__version__)

@@ -70,3 +70,24 @@ def forward_kinematics_report(loaded: LoadedSpec, q_text: str, target: str | Non
         f"  rotation Rz, Ry, Rx ({angle}):     {angles}\n"
         f"  matrix (rotation | position in {length}):\n{rows}"
     )
+
+
+def run_summary(outcome) -> str:
+    """What `armcal run` prints: status, identifiability, residuals before/after, files written."""
+    r = outcome.results
+    unit = r.device.unit
+    cal = r.residuals.calibration
+    lines = [
+        f"{r.robot.name} ({r.robot.serial}): {r.status} ({r.solver.reason}, {r.solver.iterations} iterations)",
+        f"  identified {r.identifiability.rank} of {r.identifiability.n_parameters} parameters, "
+        f"condition number {r.identifiability.condition_number:.3g}",
+        f"  calibration RMS {cal.before.rms:.4g} -> {cal.after.rms:.4g} {unit} (x{r.improvement_factor.calibration:.3g})",
+    ]
+    if r.residuals.validation is not None:
+        val = r.residuals.validation
+        lines.append(f"  validation  RMS {val.before.rms:.4g} -> {val.after.rms:.4g} {unit} (x{r.improvement_factor.validation:.3g})")
+    lines.append(f"  noise check chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g} (p = {r.noise_check.p_value:.3g})")
+    if r.identifiability.unidentifiable:
+        lines.append(f"  not identifiable from these data: {', '.join(r.identifiability.unidentifiable)}")
+    lines.append(f"  wrote {outcome.out_dir / 'results.json'}, {outcome.out_dir / 'calibrated.yaml'}")
+    return "\n".join(lines)

@@ -54,6 +54,10 @@ class DeviceModel(ABC):
         """Which samples the instrument can read at all (N,) - every one unless it says otherwise."""
         return np.ones(len(readings), dtype=bool)
 
+    def prepare(self, measurements):
+        """Readings as the model predicts them (e.g. raw ranges compensated); unchanged by default."""
+        return measurements
+
     def visible(self, key: Key, poses: np.ndarray, pd: np.ndarray | None = None) -> np.ndarray:
         """Which true target poses (N, 4, 4) give a valid reading (N,)."""
         return self.measurable(key, self.evaluate(key, poses, pd))

@@ -16,6 +16,7 @@ import numpy as np
 from armcal.devices.base import Channel, DeviceModel, Key, symbols, transform_point
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterInfo, ParameterSet, pose_entries
+from armcal.devices.sound import ROD_NEAR
 from armcal.kinematics.transforms import xyz_zyx
 from armcal.spec.device import SonicDigitizer
 
@@ -91,8 +92,19 @@ class SonicModel(DeviceModel):
         return ca.Function("g_sonic", [pose, pd], [readings], ["T", "pd"], ["y"])
 
     def range_sigma(self, ranges: np.ndarray) -> np.ndarray:
-        """sigma = a * range + b (7.9), reduced by averaging N_avg readings."""
-        return (self.spec.noise.a * ranges + self.spec.noise.b) / np.sqrt(self.averaging)
+        """sigma = a * range + b (7.9), reduced by averaging N_avg readings.
+
+        With calibration rods, a compensated range L = f s also carries the rod
+        ratio's noise (E.1): sigma_f / f = sqrt(sigma(s_near)^2 + sigma(s_far)^2) / D.
+        """
+        noise = self.spec.noise
+        sigma = (noise.a * ranges + noise.b) / np.sqrt(self.averaging)
+        if self.spec.calibration_rods:
+            rod = self.spec.calibration_rods[0].length
+            near, far = (noise.a * d + noise.b for d in (ROD_NEAR, ROD_NEAR + rod))
+            relative = np.hypot(near, far) / np.sqrt(self.averaging) / rod
+            sigma = np.hypot(sigma, relative * ranges)
+        return sigma
 
     def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
         readings = np.atleast_2d(readings)
@@ -110,6 +122,30 @@ class SonicModel(DeviceModel):
         sigma_s = self.range_sigma(ranges)
         J = np.array(jacobian.map(len(points))(ranges.T)).T.reshape(len(points), 3, 3).transpose(0, 2, 1)
         return np.sqrt(np.einsum("nij,nj->ni", J**2, sigma_s**2))
+
+    def prepare(self, measurements):
+        """Raw slant ranges -> compensated ranges (App. E, when rod ranges were recorded) -> points if fitted so."""
+        from dataclasses import replace
+
+        from armcal.devices.sound import compensate, rod_ratio
+
+        readings = dict(measurements.readings)
+        ranges = {m: readings[f"s_{m}"] for m in self.microphones if f"s_{m}" in readings}
+        if not ranges:
+            return measurements  # the file holds triangulated points already
+        rods = {
+            rod.microphone: rod_ratio(measurements.extras[f"rod_{rod.microphone}_1"], measurements.extras[f"rod_{rod.microphone}_2"], rod.length)
+            for rod in self.spec.calibration_rods
+            if f"rod_{rod.microphone}_1" in measurements.extras
+        }
+        if rods:
+            ranges = compensate(ranges, rods, self.nominal_microphones)
+        if self.mode == "points":
+            w = microphone_distances(self.nominal_microphones)
+            readings = dict(zip("xyz", triangulate(*(ranges[m] for m in PRIMARY), *w)))
+        else:
+            readings.update({f"s_{m}": value for m, value in ranges.items()})
+        return replace(measurements, readings=readings)
 
     def measurable(self, key: Key, readings: np.ndarray) -> np.ndarray:
         """Ranges within the instrument's range limits (ranges mode; points are always readable)."""

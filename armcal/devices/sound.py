@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 ZERO_CELSIUS_SPEED = 331_450.0  # mm/s in dry air at 0 degC
+ROD_NEAR = 300.0  # mm from a calibration rod's microphone to its near sparker
 
 
 def speed_of_sound(temperature_c: np.ndarray | float) -> np.ndarray:

@@ -19,7 +19,7 @@ from armcal.dataio.measurements import Measurements
 from armcal.devices import device_model
 from armcal.devices.base import DeviceModel
 from armcal.devices.sonic import SonicModel
-from armcal.devices.sound import raw_range, speed_of_sound, vertical
+from armcal.devices.sound import ROD_NEAR, raw_range, speed_of_sound, vertical
 from armcal.kinematics.compiler import compile_robot
 from armcal.procedures import Plan, plan
 from armcal.simulate import effects as hidden
@@ -28,7 +28,6 @@ from armcal.spec import sections as fx
 from armcal.spec.model import Spec
 
 ROOM_TEMPERATURE = 21.1  # degC, 70 F: the sonic digitizer's nominal conditions
-ROD_NEAR = 300.0  # mm from a rod's microphone to its near sparker
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from armcal.spec.base import SpecModel
 from armcal.spec.device import Device
 from armcal.spec.procedure import Procedure
 from armcal.spec.robot import Robot
-from armcal.spec.sections import Data, Diagnose, Effect, Report, Simulate
+from armcal.spec.sections import Data, Diagnose, Effect, Fit, Report, Simulate
 
 
 class Spec(SpecModel):
@@ -24,5 +24,6 @@ class Spec(SpecModel):
     data: Data | None = None
     simulate: Simulate | None = None
     effects: list[Effect] = Field([], description="non-geometric effects in the fitted model")
+    fit: Fit = Fit()
     diagnose: Diagnose = Diagnose()
     report: Report = Report()

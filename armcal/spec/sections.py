@@ -150,6 +150,20 @@ class Simulate(SpecModel):
     temperature: tuple[float, float] | None = Field(None, description="start and end temperature, degC")
 
 
+class Fit(SpecModel):
+    """How the parameters are identified."""
+
+    method: Literal["least_squares", "s_model_features"] = Field(
+        "least_squares", description="Levenberg-Marquardt on all data, or Stone's feature-based S-Model identification"
+    )
+    loss: Literal["linear", "huber", "cauchy"] = "linear"
+    loss_scale: float = Field(3.0, gt=0.0, description="robust loss threshold, in noise sigmas")
+    max_iterations: int = Field(100, ge=1)
+    sonic_readings: Literal["ranges", "points"] = Field(
+        "ranges", description="fit the sonic digitizer's slant ranges or its triangulated points"
+    )
+
+
 class Diagnose(SpecModel):
     """The residual diagnosis loop after each fit."""
 

@@ -1,0 +1,1 @@
+"""Evaluation: residual statistics, validation, improvement factors, evaluation tasks."""

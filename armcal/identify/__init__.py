@@ -1,0 +1,1 @@
+"""Identification: problem assembly, Levenberg-Marquardt, identifiability, uncertainty."""

@@ -1,0 +1,64 @@
+"""Uncertainty of the identified parameters and a check of the noise model.
+
+With residuals weighted by the device's noise sigma, the covariance of the
+base parameters is (J^T J)^-1 at the solution. chi^2 = sum r^2 is compared with
+its distribution on M - p degrees of freedom: if the residuals are larger than
+the noise model allows (p-value below 1 %), the covariance is scaled by
+chi^2 / dof so the uncertainties stay honest, and the report says so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+NOISE_CHECK_LEVEL = 0.01
+CORRELATION_REPORTED = 0.95
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    covariance: np.ndarray  # (p, p) over the base parameters
+    std: np.ndarray  # (p,)
+    chi2: float
+    dof: int
+    p_value: float  # of chi2 >= observed under the noise model
+    scaled: bool  # covariance scaled by chi2 / dof
+    correlations: tuple[tuple[str, str, float], ...]  # pairs above CORRELATION_REPORTED
+
+
+def estimate(J: np.ndarray, r: np.ndarray, names: list[str]) -> Uncertainty:
+    """Covariance of the parameters of the weighted Jacobian J (M, p) at the solution."""
+    chi2 = float(r @ r)
+    dof = max(len(r) - J.shape[1], 1)
+    p_value = float(stats.chi2.sf(chi2, dof))
+    covariance = np.linalg.pinv(J.T @ J)
+    scaled = p_value < NOISE_CHECK_LEVEL and chi2 > dof
+    if scaled:
+        covariance *= chi2 / dof
+    std = np.sqrt(np.maximum(np.diag(covariance), 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        correlation = covariance / np.outer(std, std)
+    pairs = [
+        (names[i], names[j], float(correlation[i, j]))
+        for i in range(len(names))
+        for j in range(i + 1, len(names))
+        if abs(correlation[i, j]) >= CORRELATION_REPORTED
+    ]
+    return Uncertainty(covariance, std, chi2, dof, p_value, scaled, tuple(pairs))
+
+
+def residual_stats(values: np.ndarray) -> dict:
+    """STATS of the contract: n, rms, mean, std, max_abs."""
+    values = np.asarray(values, dtype=float)
+    if not len(values):
+        return {"n": 0, "rms": 0.0, "mean": 0.0, "std": 0.0, "max_abs": 0.0}
+    return {
+        "n": int(len(values)),
+        "rms": float(np.sqrt(np.mean(values**2))),
+        "mean": float(np.mean(values)),
+        "std": float(np.std(values)),
+        "max_abs": float(np.max(np.abs(values))),
+    }

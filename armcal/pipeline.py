@@ -1,0 +1,129 @@
+"""run(spec): load, compile, read data, fit, evaluate, write the artifacts - the stages in order."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from armcal import __version__
+from armcal.dataio.reader import read_measurements
+from armcal.devices import device_model
+from armcal.errors import UserError
+from armcal.evaluate.residuals import before_after, improvement, residual_unit
+from armcal.fileio import write_text_atomic
+from armcal.identify.fit import fit
+from armcal.identify.problem import build_problem
+from armcal.kinematics.compiler import compile_robot
+from armcal.results.build import build_results, parameter_rows
+from armcal.results.calibrated import calibrated_yaml
+from armcal.results.model import Results
+from armcal.spec import LoadedSpec, load_spec
+
+CERTIFICATE_FILES = ("certificate.pdf", "certificate.html")
+
+
+@dataclass(frozen=True)
+class Outcome:
+    results: Results
+    out_dir: Path
+
+    @property
+    def exit_code(self) -> int:
+        return 0 if self.results.status == "converged" else 3
+
+
+def default_out_dir(spec_path: Path) -> Path:
+    """out/<spec stem>/ next to the spec (contract)."""
+    return spec_path.parent / "out" / spec_path.stem
+
+
+def run(spec_path: Path, out_dir: Path | None = None, force: bool = False) -> Outcome:
+    loaded = load_spec(spec_path)
+    out_dir = Path(out_dir) if out_dir is not None else default_out_dir(loaded.path)
+    _refuse_overwrite(out_dir, force)
+    spec = loaded.spec
+    if spec.data is None:
+        raise UserError(f"{loaded.path}: the spec has no data section; add one (or write data with 'armcal simulate')")
+    folder = loaded.path.parent
+    calibration_path = folder / spec.data.calibration
+    kinematics = compile_robot(spec.robot)
+    device = device_model(spec, _sonic_mode(spec, calibration_path))
+    calibration = device.prepare(read_measurements(calibration_path, spec))
+    validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
+    problem = build_problem(kinematics, device, calibration)
+    result = fit(problem, spec.fit)
+    results = _results(loaded, problem, result, build_problem(kinematics, device, validation) if validation else None, calibration)
+    _write(loaded, results, result, problem, out_dir)
+    return Outcome(results, out_dir)
+
+
+def _sonic_mode(spec, calibration_path: Path) -> str:
+    """Fit triangulated points when that is all the data file has, else as the spec says."""
+    if spec.device.type != "sonic_digitizer" or not calibration_path.exists():
+        return spec.fit.sonic_readings
+    header = calibration_path.read_text(encoding="utf-8-sig").split("\n", 1)[0].split(",")
+    return "points" if "x" in header and not any(h.startswith("s_") for h in header) else spec.fit.sonic_readings
+
+
+def _refuse_overwrite(out_dir: Path, force: bool) -> None:
+    existing = [name for name in CERTIFICATE_FILES if (out_dir / name).exists()]
+    if existing and not force:
+        raise UserError(f"{out_dir / existing[0]} exists; use --force to replace the certificate")
+
+
+def _results(loaded: LoadedSpec, problem, result, validation_problem, calibration) -> Results:
+    spec = loaded.spec
+    device_type = spec.device.type
+    kind, unit = residual_unit(device_type)
+    calibration_pair = before_after(problem, result.start, result.theta, device_type)
+    validation_pair = before_after(validation_problem, result.start, result.theta, device_type) if validation_problem else None
+    identified = set(result.identifiability.base)
+    ident = result.identifiability
+    uncertainty = result.uncertainty
+    rows = calibration.rows[problem.residuals.sample[result.outliers]] if len(result.outliers) else []
+    return build_results(
+        loaded,
+        status="converged" if result.solver.converged else "not_converged",
+        unit=unit,
+        identifiability={
+            "n_parameters": ident.n_parameters,
+            "rank": ident.rank,
+            "free": list(ident.base),
+            "fixed": [{"name": n, "reason": r} for n, r in ident.fixed],
+            "condition_number": ident.condition_number,
+            "observability_o1": ident.observability_o1,
+            "unidentifiable": list(ident.unidentifiable),
+        },
+        parameters=parameter_rows(loaded, problem.parameters.entries, result.theta, result.std, identified),
+        residuals={"calibration": calibration_pair, "validation": validation_pair},
+        improvement_factor={
+            "calibration": improvement(calibration_pair),
+            "validation": improvement(validation_pair) if validation_pair else None,
+        },
+        diagnosis={"rounds": [], "added_effects": [], "unexplained": bool(uncertainty.scaled)},
+        evaluation={},
+        solver={
+            "method": spec.fit.method,
+            "iterations": result.solver.iterations,
+            "reason": result.solver.reason,
+            "loss": spec.fit.loss,
+            "outliers": sorted(int(r) for r in set(np.asarray(rows).tolist())),
+        },
+        noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled},
+        correlations=[list(c) for c in uncertainty.correlations],
+    )
+
+
+def _write(loaded: LoadedSpec, results: Results, result, problem, out_dir: Path) -> None:
+    write_text_atomic(out_dir / "results.json", json.dumps(results.model_dump(mode="json"), indent=2) + "\n")
+    kinds = {e.name: e.kind for e in problem.parameters.entries}
+    identified = {name: (float(result.theta[problem.parameters.index(name)]), kinds[name]) for name in result.identifiability.base}
+    note = (
+        f"Calibrated by armcal {__version__} on {results.created} from {loaded.path.name} "
+        f"(sha256 {loaded.sha256[:12]}), status {results.status}."
+    )
+    text = calibrated_yaml(loaded.text, loaded.spec, identified, loaded.path, out_dir, note)
+    write_text_atomic(out_dir / "calibrated.yaml", text)

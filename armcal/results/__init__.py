@@ -1,0 +1,1 @@
+"""Results of a run: the results.json contract and the calibrated spec."""

@@ -1,0 +1,52 @@
+"""Assemble results.json from the stages' plain outputs (values in the spec's units)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from armcal import __version__
+from armcal.results.model import Results
+from armcal.results.provenance import git_info, utc_now
+from armcal.spec import LoadedSpec
+from armcal.units import from_internal
+
+
+def spec_unit(kind: str, loaded: LoadedSpec) -> str:
+    units = loaded.spec.robot.units
+    return {"length": units.length, "angle": units.angle}.get(kind, "1")
+
+
+def parameter_rows(loaded: LoadedSpec, entries, values: np.ndarray, std: np.ndarray, identified: set[str]) -> list[dict]:
+    rows = []
+    for entry, value, sd in zip(entries, values, std):
+        unit = spec_unit(entry.kind, loaded)
+        shown = lambda v: from_internal(float(v), entry.kind, unit)  # noqa: E731
+        rows.append(
+            {
+                "name": entry.name,
+                "unit": unit,
+                "nominal": shown(entry.nominal),
+                "value": shown(value),
+                "std": None if math.isnan(sd) else shown(sd),
+                "free": entry.name in identified,
+            }
+        )
+    return rows
+
+
+def build_results(loaded: LoadedSpec, **stages) -> Results:
+    """Results from: status, unit, identifiability, parameters, residuals, improvement_factor,
+    diagnosis, evaluation, solver, noise_check, correlations."""
+    spec = loaded.spec
+    return Results.model_validate(
+        {
+            "armcal_version": __version__,
+            "created": utc_now(),
+            "spec": {"path": str(loaded.path), "sha256": loaded.sha256, "git": git_info(loaded.path)},
+            "robot": {"name": spec.robot.name, "serial": spec.robot.serial, "convention": spec.robot.convention, "dof": spec.robot.dof},
+            "device": {"type": spec.device.type, "unit": stages.pop("unit")},
+            **stages,
+        }
+    )

@@ -1,0 +1,83 @@
+"""calibrated.yaml: the input spec with the identified values written in, comments kept.
+
+The spec is edited with ruamel's round-trip loader, so its layout and comments
+stay; each identified parameter's value is replaced (in the spec's units), data
+paths are re-pointed from the output folder, and a header comment says where
+the values came from.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+from ruamel.yaml import YAML
+from ruamel.yaml.comments import CommentedMap
+
+from armcal.spec.model import Spec
+from armcal.units import from_internal
+
+SIGNIFICANT = 10
+
+
+def yaml_path(name: str, spec: Spec) -> list:
+    """Where a parameter lives in the spec's YAML."""
+    head, _, field = name.rpartition(".")
+    robot = spec.robot
+    if head in ("base", "tool"):
+        return ["robot", head, field]
+    if head in robot.joint_names():
+        return ["robot", "joints", robot.joint_names().index(head), field]
+    if head.startswith("L") and head[1:].isdigit():
+        return ["robot", "links", int(head[1:]) - 1, field]
+    if head in robot.targets:
+        return ["robot", "targets", head, field]
+    first, _, rest = head.partition(".")
+    device = {
+        "robot_base": ["device", "robot_base"],
+        "mic": ["device", "microphones", rest],
+        "pivot": ["device", "pivots", rest],
+        "station": ["device", "stations", rest, "pose"],
+        "scale_bar": ["device", "scale_bar", rest],
+    }
+    if name in ("bar.length",):
+        return ["device", "length"]
+    if name in ("sonic.scale", "tracker.scale"):
+        return ["device", "scale"]
+    return [*device[first], field]
+
+
+def _set(root: CommentedMap, path: list, value: float) -> None:
+    node = root
+    for part in path[:-1]:
+        node = node[part]
+    last = path[-1]
+    current = node.get(last) if isinstance(node, dict) else None
+    if isinstance(current, dict):
+        current["value"] = value
+    else:
+        node[last] = value
+
+
+def calibrated_yaml(
+    spec_text: str, spec: Spec, identified: dict[str, tuple[float, str]], source: Path, out_dir: Path, note: str
+) -> str:
+    """The spec text with ``identified`` {name: (internal value, kind)} written in."""
+    yaml = YAML(typ="rt")
+    yaml.preserve_quotes = True
+    yaml.width = 4096  # keep flow-style rows on one line as the user wrote them
+    root = yaml.load(spec_text)
+    units = {"length": spec.robot.units.length, "angle": spec.robot.units.angle, "scale": "1"}
+    for name, (value, kind) in identified.items():
+        shown = from_internal(value, kind, units[kind])
+        _set(root, yaml_path(name, spec), float(f"{shown:.{SIGNIFICANT}g}"))
+    if spec.data is not None and "data" in root:
+        for key in ("calibration", "validation"):
+            if root["data"].get(key):
+                target = (source.parent / root["data"][key]).resolve()
+                root["data"][key] = os.path.relpath(target, out_dir.resolve())
+    root.yaml_set_start_comment(note)
+    out = io.StringIO()
+    yaml.dump(root, out)
+    return out.getvalue()

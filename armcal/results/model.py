@@ -1,0 +1,155 @@
+"""results.json: the contract of ARCHITECTURE.md as frozen models (no CasADi here)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class GitInfo(_Frozen):
+    commit: str
+    dirty: bool
+
+
+class SpecInfo(_Frozen):
+    path: str
+    sha256: str
+    git: GitInfo | None
+
+
+class RobotInfo(_Frozen):
+    name: str
+    serial: str
+    convention: str
+    dof: int
+
+
+class DeviceInfo(_Frozen):
+    type: str
+    unit: str  # unit of the residual statistics
+
+
+class FixedParameter(_Frozen):
+    name: str
+    reason: str
+
+
+class IdentifiabilityInfo(_Frozen):
+    n_parameters: int
+    rank: int
+    free: list[str]
+    fixed: list[FixedParameter]
+    condition_number: float
+    observability_o1: float
+    unidentifiable: list[str]
+
+
+class ParameterResult(_Frozen):
+    name: str
+    unit: str
+    nominal: float
+    value: float
+    std: float | None
+    free: bool
+
+
+class Stats(_Frozen):
+    n: int
+    rms: float
+    mean: float
+    std: float
+    max_abs: float
+
+
+class BeforeAfter(_Frozen):
+    before: Stats
+    after: Stats
+
+
+class Residuals(_Frozen):
+    calibration: BeforeAfter
+    validation: BeforeAfter | None
+
+
+class ImprovementFactor(_Frozen):
+    calibration: float
+    validation: float | None
+
+
+class EffectParameter(_Frozen):
+    name: str
+    value: float
+    std: float | None
+    unit: str
+
+
+class EffectResult(_Frozen):
+    type: str
+    joint: int | None
+    order: int | None
+    parameters: list[EffectParameter]
+
+
+class Candidate(_Frozen):
+    effect: str
+    joint: int | None
+    statistic: float
+    dof: int
+    p_value: float
+    distinguishable: bool
+
+
+class RMSPair(_Frozen):
+    calibration: float
+    validation: float | None
+
+
+class Round(_Frozen):
+    candidates: list[Candidate]
+    accepted: EffectResult | None
+    rms_before: RMSPair
+    rms_after: RMSPair
+
+
+class Diagnosis(_Frozen):
+    rounds: list[Round]
+    added_effects: list[EffectResult]
+    unexplained: bool
+
+
+class NoiseCheck(_Frozen):
+    chi2: float
+    dof: int
+    p_value: float
+    covariance_scaled: bool
+
+
+class Solver(_Frozen):
+    method: str
+    iterations: int
+    reason: str
+    loss: str
+    outliers: list[int]  # data file lines of samples the robust loss down-weighted
+
+
+class Results(_Frozen):
+    armcal_version: str
+    created: str
+    spec: SpecInfo
+    robot: RobotInfo
+    device: DeviceInfo
+    status: Literal["converged", "not_converged"]
+    identifiability: IdentifiabilityInfo
+    parameters: list[ParameterResult]
+    residuals: Residuals
+    improvement_factor: ImprovementFactor
+    diagnosis: Diagnosis
+    evaluation: dict
+    solver: Solver
+    noise_check: NoiseCheck
+    correlations: list[tuple[str, str, float]]

@@ -41,6 +41,16 @@ class TheodoliteModel(DeviceModel):
                 entries += pose_entries(end, point, ("x", "y", "z"))
         self.parameters = ParameterSet(tuple(entries))
 
+    def with_calibrated_bar(self, pd: np.ndarray) -> np.ndarray:
+        """Device parameters with the second mark moved along the bar so the marks are exactly its length apart."""
+        if self.spec.scale_bar is None:
+            return pd
+        pd = np.asarray(pd, dtype=float).copy()
+        first, second = ([self.parameters.index(f"{end}.{c}") for c in "xyz"] for end in BAR_ENDS)
+        along = pd[second] - pd[first]
+        pd[second] = pd[first] + along * self.spec.scale_bar.length / np.linalg.norm(along)
+        return pd
+
     def channels(self, key: Key) -> tuple[Channel, ...]:
         if key == BAR_LENGTH:
             return (Channel("length", "length"),)

@@ -19,6 +19,7 @@ from armcal.dataio.measurements import Measurements
 from armcal.devices import device_model
 from armcal.devices.base import DeviceModel
 from armcal.devices.sonic import SonicModel
+from armcal.devices.theodolite import TheodoliteModel
 from armcal.devices.sound import ROD_NEAR, raw_range, speed_of_sound, vertical
 from armcal.kinematics.compiler import compile_robot
 from armcal.procedures import Plan, plan
@@ -61,7 +62,7 @@ def simulate_campaign(spec: Spec, spec_dir: Path) -> Campaign:
 
 
 def _true_device_parameters(device: DeviceModel, settings: fx.Simulate, rng: np.random.Generator) -> np.ndarray:
-    """Free instrument parameters off their nominal by sigma_p / sigma_o; pivot offsets added."""
+    """Free instrument parameters off their nominal by sigma_p / sigma_o; pivot offsets added; scale bars true to length."""
     pd = device.parameters.nominal.copy()
     for i, entry in enumerate(device.parameters.entries):
         if entry.free and entry.kind != "scale":
@@ -70,6 +71,8 @@ def _true_device_parameters(device: DeviceModel, settings: fx.Simulate, rng: np.
         if isinstance(effect, fx.PivotOffset):
             for c in "xyz":
                 pd[device.parameters.index(f"pivot.{effect.pivot}.{c}")] += getattr(effect, c).value
+    if isinstance(device, TheodoliteModel):
+        pd = device.with_calibrated_bar(pd)  # the bar is as long as its certificate says
     return pd
 
 

@@ -1,0 +1,76 @@
+"""Synthetic campaigns whose truth is known exactly: the fitted model with its base parameters moved."""
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from armcal.dataio.measurements import Measurements
+from armcal.devices import device_model
+from armcal.identify.identifiability import analyse
+from armcal.identify.problem import build_problem
+from armcal.kinematics.compiler import compile_robot
+from armcal.procedures import plan
+from armcal.spec import load_spec
+
+PERTURBATION = {"length": 0.5, "angle": 1e-3, "scale": 1e-4}  # mm, rad, 1
+
+
+@dataclass
+class Setup:
+    spec: object
+    kinematics: object
+    device: object
+    plans: list
+    base: np.ndarray  # indices of the base parameters
+
+
+def setup(spec_path: Path, text_changes=()) -> Setup:
+    text = spec_path.read_text()
+    for old, new in text_changes:
+        assert old in text, old
+        text = text.replace(old, new)
+    path = spec_path.with_name(f".test_{spec_path.name}")
+    path.write_text(text)
+    try:
+        spec = load_spec(path).spec
+    finally:
+        path.unlink()
+    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    plans = [plan(p, kinematics, device, spec, spec_path.parent) for p in (spec.procedure, spec.validation or spec.procedure)]
+    probe = build_problem(kinematics, device, measure(kinematics, device, plans[0], None, None))
+    _, J = probe.evaluate(probe.parameters.nominal)
+    names = analyse(J, probe.parameters, probe.parameters.free).base
+    base = np.array([probe.parameters.index(n) for n in names])
+    return Setup(spec, kinematics, device, plans, base)
+
+
+def truth(s: Setup, rng) -> np.ndarray:
+    parameters = build_problem(s.kinematics, s.device, measure(s.kinematics, s.device, s.plans[0], None, None)).parameters
+    theta = parameters.nominal.copy()
+    kinds = np.array([e.kind for e in parameters.entries])
+    theta[s.base] += rng.normal(size=len(s.base)) * np.array([PERTURBATION[k] for k in kinds[s.base]])
+    n_robot = len(s.kinematics.parameters)
+    if hasattr(s.device, "with_calibrated_bar"):  # a true scale bar has its calibrated length
+        theta[n_robot:] = s.device.with_calibrated_bar(theta[n_robot:])
+    return theta
+
+
+def measure(kinematics, device, planned, theta, rng) -> Measurements:
+    """Readings of a plan predicted at theta (nominal if None), plus the device's noise if rng is given."""
+    n_robot = len(kinematics.parameters)
+    p = None if theta is None else theta[:n_robot]
+    pd = None if theta is None else theta[n_robot:]
+    keys = planned.keys
+    readings: dict[str, np.ndarray] = {}
+    for key in dict.fromkeys(keys):
+        rows = np.flatnonzero([k == key for k in keys])
+        if device.target(key) is None:
+            values = device.evaluate(key, np.repeat(np.eye(4)[None], len(rows), 0), pd)
+        else:
+            values = device.predict(kinematics, key, planned.q[rows], p, pd)
+        if rng is not None:
+            values = values + rng.normal(size=values.shape) * device.sigma(key, values)
+        for c, channel in enumerate(device.channels(key)):
+            readings.setdefault(channel.name, np.full(len(keys), np.nan))[rows] = values[:, c]
+    return Measurements(keys=keys, q=planned.q, readings=readings)

@@ -1,0 +1,67 @@
+"""`armcal run` end to end on the shipped examples, per the output contract."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+from conftest import ROOT
+
+from armcal.pipeline import run
+from armcal.results.model import Results
+from armcal.spec import load_spec
+
+EXAMPLES = sorted(p.parent.name for p in (ROOT / "examples").glob("*/spec.yaml"))
+CONTRACT = {
+    "armcal_version", "created", "spec", "robot", "device", "status", "identifiability",
+    "parameters", "residuals", "improvement_factor", "diagnosis", "evaluation",
+}
+
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_run_writes_the_contract(tmp_path, name):
+    outcome = run(ROOT / "examples" / name / "spec.yaml", tmp_path)
+    assert outcome.exit_code == 0
+    data = json.loads((tmp_path / "results.json").read_text())
+    assert CONTRACT <= set(data)
+    Results.model_validate(data)
+    assert set(data["spec"]) == {"path", "sha256", "git"} and set(data["robot"]) == {"name", "serial", "convention", "dof"}
+    assert set(data["identifiability"]) >= {"n_parameters", "rank", "free", "fixed", "condition_number"}
+    assert set(data["parameters"][0]) == {"name", "unit", "nominal", "value", "std", "free"}
+    for stats in (data["residuals"]["calibration"]["before"], data["residuals"]["calibration"]["after"]):
+        assert set(stats) == {"n", "rms", "mean", "std", "max_abs"}
+    assert set(data["diagnosis"]) == {"rounds", "added_effects", "unexplained"}
+    assert data["improvement_factor"]["calibration"] > 5
+    calibrated = load_spec(tmp_path / "calibrated.yaml")  # a valid spec, ready to commit
+    assert calibrated.spec.robot.serial == data["robot"]["serial"]
+
+
+def test_calibrated_spec_holds_the_identified_values(tmp_path):
+    outcome = run(ROOT / "examples" / "goswami_ballbar" / "spec.yaml", tmp_path)
+    text = (tmp_path / "calibrated.yaml").read_text()
+    assert text.startswith("# Calibrated by armcal")
+    assert "centre-to-centre at mid-travel" in text  # the input spec's comments are kept
+    calibrated = load_spec(tmp_path / "calibrated.yaml").spec
+    x3 = next(p for p in outcome.results.parameters if p.name == "L3.x")
+    assert calibrated.robot.links[2].x.value == pytest.approx(x3.value * 10, rel=1e-9)  # cm -> mm
+
+
+def test_a_fit_that_cannot_converge_exits_3_with_its_reason(tmp_path):
+    text = (ROOT / "examples" / "theodolite" / "spec.yaml").read_text().replace("simulate:", "fit: {max_iterations: 1}\nsimulate:")
+    spec = ROOT / "examples" / "theodolite" / ".test_not_converging.yaml"
+    spec.write_text(text)
+    try:
+        cmd = [sys.executable, "-m", "armcal", "run", str(spec), "--out", str(tmp_path)]
+        result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    finally:
+        spec.unlink()
+    assert result.returncode == 3, result.stderr
+    data = json.loads((tmp_path / "results.json").read_text())
+    assert data["status"] == "not_converged" and "iteration limit" in data["solver"]["reason"]
+
+
+def test_run_without_data_is_a_user_error(tmp_path):
+    from armcal.errors import UserError
+
+    with pytest.raises(UserError, match="no data section"):
+        run(ROOT / "specs" / "puma560_dh.yaml", tmp_path)

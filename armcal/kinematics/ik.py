@@ -61,12 +61,12 @@ def solve(
     function = _error_function(model, frame, goals.shape[1] == 12)
     p = model.parameter_vector(p)
     active = np.ones(count, dtype=bool)
-    for _ in range(max_iterations + 1):
+    for iteration in range(max_iterations + 1):
         rows = np.flatnonzero(active)
         delta, J = _evaluate(function, Q[rows], p, goals[rows])
         active[rows] = ~_done(delta, tol_position, tol_rotation) & np.isfinite(delta).all(axis=1)
         keep = active[rows]
-        if not keep.any():
+        if not keep.any() or iteration == max_iterations:
             break
         rows, delta, J = rows[keep], delta[keep], J[keep]
         JT = J.transpose(0, 2, 1)
@@ -100,3 +100,37 @@ def pose_goals(T: np.ndarray) -> np.ndarray:
 def within_limits(model: KinematicModel, Q: np.ndarray) -> np.ndarray:
     """Which configurations (N, n) respect every joint limit."""
     return np.all((Q >= model.limits[:, 0]) & (Q <= model.limits[:, 1]), axis=1)
+
+
+def jacobi(
+    design: KinematicModel,
+    signature: KinematicModel,
+    targets: np.ndarray,
+    q0: np.ndarray,
+    p_design: np.ndarray | None = None,
+    p_signature: np.ndarray | None = None,
+    resolution: float = 1e-6,
+    max_iterations: int = 50,
+) -> IKResult:
+    """Jacobi iterative inverse of a signature model, Stone (5.8).
+
+    q_{k+1} = F_d^-1[F_d(q_k) F_s(q_k)^-1 T*], started at q_0 = F_d^-1(T*); F_d^-1 is
+    the design model's inverse (Newton-Raphson on the design model, from q_k).
+    Converged when every joint's change is below ``resolution`` (5.3).
+    """
+    targets = np.asarray(targets, dtype=float)
+    Q = np.array(np.broadcast_to(q0, (len(targets), design.dof)), dtype=float)
+    converged = np.zeros(len(targets), dtype=bool)
+    for _ in range(max_iterations):
+        Fd = design.tool_poses(Q, p_design)
+        Fs = signature.tool_poses(Q, p_signature)
+        moved = Fd @ np.linalg.inv(Fs) @ targets  # (5.8), (5.10): T^k = F_d(q^k) Delta^k
+        Q_next = solve(design, pose_goals(moved), Q, p=p_design).q
+        converged = np.all(np.abs(Q_next - Q) < resolution, axis=1)
+        Q = Q_next
+        if converged.all():
+            break
+    reached = signature.tool_poses(Q, p_signature)
+    delta_p = np.linalg.norm(reached[:, :3, 3] - targets[:, :3, 3], axis=1)
+    delta_r = np.linalg.norm(0.5 * sum(np.cross(reached[:, :3, i], targets[:, :3, i]) for i in range(3)), axis=1)
+    return IKResult(Q, converged, delta_p, delta_r)

@@ -12,9 +12,10 @@ from armcal import __version__
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
 from armcal.errors import UserError
+from armcal.evaluate.features import evaluation
 from armcal.evaluate.residuals import before_after, improvement, residual_unit
 from armcal.fileio import write_text_atomic
-from armcal.identify.fit import fit
+from armcal.identify.methods import identify_parameters
 from armcal.identify.problem import build_problem
 from armcal.kinematics.compiler import compile_robot
 from armcal.results.build import build_results, parameter_rows
@@ -51,12 +52,14 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False) -> Ou
     calibration_path = folder / spec.data.calibration
     kinematics = compile_robot(spec.robot)
     device = device_model(spec, _sonic_mode(spec, calibration_path))
-    calibration = device.prepare(read_measurements(calibration_path, spec))
+    raw = read_measurements(calibration_path, spec)
+    calibration = device.prepare(raw)
     validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
     problem = build_problem(kinematics, device, calibration)
-    result = fit(problem, spec.fit)
-    results = _results(loaded, problem, result, build_problem(kinematics, device, validation) if validation else None, calibration)
-    _write(loaded, results, result, problem, out_dir)
+    identified = identify_parameters(spec, problem, raw)
+    validation_problem = build_problem(kinematics, device, validation) if validation else None
+    results = _results(loaded, problem, identified, validation_problem, calibration)
+    _write(loaded, results, identified, problem, out_dir)
     return Outcome(results, out_dir)
 
 
@@ -74,19 +77,21 @@ def _refuse_overwrite(out_dir: Path, force: bool) -> None:
         raise UserError(f"{out_dir / existing[0]} exists; use --force to replace the certificate")
 
 
-def _results(loaded: LoadedSpec, problem, result, validation_problem, calibration) -> Results:
+def _results(loaded: LoadedSpec, problem, identified, validation_problem, calibration) -> Results:
     spec = loaded.spec
     device_type = spec.device.type
     kind, unit = residual_unit(device_type)
-    calibration_pair = before_after(problem, result.start, result.theta, device_type)
-    validation_pair = before_after(validation_problem, result.start, result.theta, device_type) if validation_problem else None
-    identified = set(result.identifiability.base)
+    result = identified.least_squares
+    start = problem.parameters.nominal
+    calibration_pair = before_after(problem, start, identified.theta, device_type)
+    validation_pair = before_after(validation_problem, start, identified.theta, device_type) if validation_problem else None
+    free = set(result.identifiability.base) if identified.features is None else set(_changed(problem, identified.theta))
     ident = result.identifiability
     uncertainty = result.uncertainty
     rows = calibration.rows[problem.residuals.sample[result.outliers]] if len(result.outliers) else []
     return build_results(
         loaded,
-        status="converged" if result.solver.converged else "not_converged",
+        status="converged" if identified.features is not None or result.solver.converged else "not_converged",
         unit=unit,
         identifiability={
             "n_parameters": ident.n_parameters,
@@ -97,18 +102,20 @@ def _results(loaded: LoadedSpec, problem, result, validation_problem, calibratio
             "observability_o1": ident.observability_o1,
             "unidentifiable": list(ident.unidentifiable),
         },
-        parameters=parameter_rows(loaded, problem.parameters.entries, result.theta, result.std, identified),
+        parameters=parameter_rows(loaded, problem.parameters.entries, identified.theta, identified.std, free),
         residuals={"calibration": calibration_pair, "validation": validation_pair},
         improvement_factor={
             "calibration": improvement(calibration_pair),
             "validation": improvement(validation_pair) if validation_pair else None,
         },
         diagnosis={"rounds": [], "added_effects": [], "unexplained": bool(uncertainty.scaled)},
-        evaluation={},
+        evaluation=evaluation(loaded, problem, identified, validation_problem),
         solver={
-            "method": spec.fit.method,
+            "method": identified.method,
             "iterations": result.solver.iterations,
-            "reason": result.solver.reason,
+            "reason": result.solver.reason if identified.features is None else (
+                f"closed-form feature identification (Stone 4.3); least squares started from it: {result.solver.reason}"
+            ),
             "loss": spec.fit.loss,
             "outliers": sorted(int(r) for r in set(np.asarray(rows).tolist())),
         },
@@ -117,10 +124,16 @@ def _results(loaded: LoadedSpec, problem, result, validation_problem, calibratio
     )
 
 
-def _write(loaded: LoadedSpec, results: Results, result, problem, out_dir: Path) -> None:
+def _changed(problem, theta: np.ndarray) -> list[str]:
+    """Parameters a method moved from their nominal values."""
+    return [e.name for e, v in zip(problem.parameters.entries, theta) if v != e.nominal]
+
+
+def _write(loaded: LoadedSpec, results: Results, identified, problem, out_dir: Path) -> None:
     write_text_atomic(out_dir / "results.json", json.dumps(results.model_dump(mode="json"), indent=2) + "\n")
     kinds = {e.name: e.kind for e in problem.parameters.entries}
-    identified = {name: (float(result.theta[problem.parameters.index(name)]), kinds[name]) for name in result.identifiability.base}
+    values = {r.name for r in results.parameters if r.free}
+    identified = {name: (float(identified.theta[problem.parameters.index(name)]), kinds[name]) for name in values}
     note = (
         f"Calibrated by armcal {__version__} on {results.created} from {loaded.path.name} "
         f"(sha256 {loaded.sha256[:12]}), status {results.status}."

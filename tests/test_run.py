@@ -65,3 +65,17 @@ def test_run_without_data_is_a_user_error(tmp_path):
 
     with pytest.raises(UserError, match="no data section"):
         run(ROOT / "specs" / "puma560_dh.yaml", tmp_path)
+
+
+def test_stones_feature_method_beside_least_squares(tmp_path):
+    """The sonic example asks for s_model_features: features per joint, pseudo-DH, and both residuals."""
+    outcome = run(ROOT / "examples" / "puma560_sonic" / "spec.yaml", tmp_path)
+    results = outcome.results
+    assert results.status == "converged" and results.solver.method == "s_model_features"
+    block = results.evaluation["s_model_features"]
+    radii = [j["radius"] for j in block["joints"]]
+    assert radii == pytest.approx([40.87, 41.62, 43.71, 33.30, 45.13, 33.30], abs=0.05)  # Table 6-1, cm
+    features_rms = block["residuals"]["s_model_features"]["rms"]
+    least_squares_rms = block["residuals"]["least_squares"]["rms"]
+    assert least_squares_rms <= features_rms < 1.5 * least_squares_rms  # features come close; the full fit does better
+    assert results.residuals.calibration.after.rms == pytest.approx(features_rms)

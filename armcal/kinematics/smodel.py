@@ -149,19 +149,32 @@ def pseudo_dh(
     p: np.ndarray | None = None,
     reference: list[DHRow] | None = None,
 ) -> PseudoDH:
-    """Pseudo-DH parameters of any compiled robot, from its joint axes at the signature configuration.
-
-    S-Model frames: S_{i-1} = F_{i-1} (z on joint i's axis); B_i = S_{i-1}^-1 S_i (4.51);
-    S-Model parameters (4.52)-(4.57), with the DH convention for parallel axes. For
-    the last frame Stone takes S_n = S_{n-1} at the signature (4.3.3); here S_n is
-    S_{n-1} moved along joint n to the DH origin, so that d_n = 0 as in the DH
-    convention (2.2.1) and Table 6-2; the tool transform absorbs the difference;
-    DH parameters (3.12)-(3.15) with encoder offsets (4.59)-(4.60); joint 1 by (4.72)/(4.73).
-    """
+    """Pseudo-DH parameters of any compiled robot, from its joint axes at the signature configuration."""
     q_signature = np.asarray(q_signature, dtype=float)
     frames = model.link_frames(q_signature, p)
-    n = model.dof
-    S = [frames[i] for i in range(n)]
+    tool = np.array(model.fk(q_signature, model.parameter_vector(p)))
+    return pseudo_dh_from_frames(list(frames[: model.dof]), model.joint_types, q_signature, reference, tool)
+
+
+def pseudo_dh_from_frames(
+    frames: list[np.ndarray],
+    joint_types: tuple[str, ...],
+    q_signature: np.ndarray,
+    reference: list[DHRow] | None = None,
+    tool: np.ndarray | None = None,
+) -> PseudoDH:
+    """Pseudo-DH model from S-Model frames S_0..S_{n-1} (z on joints 1..n) at the signature configuration.
+
+    B_i = S_{i-1}^-1 S_i (4.51); S-Model parameters (4.52)-(4.57), with the DH
+    convention for parallel axes. For the last frame Stone takes S_n = S_{n-1} at
+    the signature (4.3.3); here S_n is S_{n-1} moved along joint n to the DH
+    origin, so that d_n = 0 as in the DH convention (2.2.1) and Table 6-2; the
+    tool transform (from a given tool pose at the signature, else identity)
+    absorbs the difference. DH parameters (3.12)-(3.15) with encoder offsets
+    (4.59)-(4.60); joint 1 by (4.72)/(4.73).
+    """
+    n = len(frames)
+    S = list(frames)
     smodel = [
         smodel_from_transform(inverse(S[i - 1]) @ S[i], reference[i - 1] if reference and i <= len(reference) else None)
         for i in range(1, n)
@@ -171,7 +184,7 @@ def pseudo_dh(
     smodel.append(SModelRow(0.0, -b_last, 0.0, 0.0, 0.0, 0.0))  # B_n = Trans(0, 0, -b_{n-1})
     S.append(S[n - 1] @ trans(0.0, 0.0, -b_last))
     rows = []
-    for i, (row, kind) in enumerate(zip(smodel, model.joint_types)):
+    for i, (row, kind) in enumerate(zip(smodel, joint_types)):
         gamma_prev, b_prev = (0.0, 0.0) if i == 0 else (smodel[i - 1].gamma, smodel[i - 1].b)  # (4.71)
         theta, d = row.beta + gamma_prev, row.d + b_prev  # (3.12), (3.13)
         if kind == "revolute":
@@ -179,5 +192,5 @@ def pseudo_dh(
         else:
             d -= q_signature[i]  # (4.73)
         rows.append(DHRow(theta, d, row.a, row.alpha))
-    tool = inverse(S[n]) @ np.array(model.fk(q_signature, model.parameter_vector(p)))
-    return PseudoDH(base=S[0], rows=rows, tool=tool, smodel=smodel, joint_types=model.joint_types)
+    tool_offset = inverse(S[n]) @ tool if tool is not None else np.eye(4)
+    return PseudoDH(base=S[0], rows=rows, tool=tool_offset, smodel=smodel, joint_types=tuple(joint_types))

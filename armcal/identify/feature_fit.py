@@ -1,0 +1,65 @@
+"""Stone's method as a fit: circle-point features -> the parameters of a ``dh`` spec robot.
+
+The pseudo-DH model of the features (4.71) starts at S_0 as the sensor sees it,
+so the instrument-to-base transform becomes S_0 times the inverse of the robot's
+(fixed) mounting frame; each target's position on its link is the mean of its
+measured positions brought into that link's frame by the identified chain.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armcal.dataio.measurements import Measurements
+from armcal.errors import UserError
+from armcal.identify.features import FeatureIdentification, identify
+from armcal.kinematics.compiler import compile_robot
+from armcal.kinematics.params import ParameterSet
+from armcal.kinematics.smodel import DHRow
+from armcal.kinematics.transforms import inverse, pose_from_matrix, xyz_zyx
+from armcal.spec.model import Spec
+from armcal.spec.procedure import CirclePoint
+from armcal.spec.robot import DHRobot
+
+POSE = ("x", "y", "z", "rz", "ry", "rx")
+
+
+def check_applicable(spec: Spec) -> None:
+    if not isinstance(spec.procedure, CirclePoint):
+        raise UserError("fit.method s_model_features needs a circle_point procedure (Stone 6.4)")
+    if not isinstance(spec.robot, DHRobot):
+        raise UserError(f"fit.method s_model_features identifies a dh robot, not {spec.robot.convention}")
+    if spec.device.type not in ("sonic_digitizer", "tracker"):
+        raise UserError(f"fit.method s_model_features needs measured target positions, not a {spec.device.type}")
+
+
+def feature_parameters(spec: Spec, points: Measurements, parameters: ParameterSet) -> tuple[np.ndarray, FeatureIdentification]:
+    """The problem's parameter vector from Stone's features of position ``points`` (instrument frame)."""
+    check_applicable(spec)
+    robot = spec.robot
+    procedure = spec.procedure
+    sweeps = []
+    for i, target in enumerate(procedure.targets):
+        rows = np.array([key == (target,) for key in points.keys])
+        xyz = np.stack([points.readings[c][rows] for c in "xyz"], axis=1)
+        sweeps.append((xyz, points.q[rows, i]))
+    reference = [DHRow(j.theta.value, j.d.value, j.a.value, j.alpha.value) for j in robot.joints]
+    joint_types = tuple(j.type for j in robot.joints)
+    found = identify(sweeps, joint_types, np.asarray(procedure.signature), reference)
+    pseudo = found.pseudo_dh
+    theta = parameters.nominal.copy()
+    set_value = lambda name, value: theta.__setitem__(parameters.index(name), value)  # noqa: E731
+    for name, row in zip(robot.joint_names(), pseudo.rows):
+        for field in ("theta", "d", "a", "alpha"):
+            set_value(f"{name}.{field}", getattr(row, field))
+    base = xyz_zyx(*(getattr(robot.base, f).value for f in POSE))
+    for field, value in zip(POSE, pose_from_matrix(pseudo.base @ inverse(base))):
+        set_value(f"robot_base.{field}", value)
+    chain = compile_robot(DHRobot.model_validate(pseudo.robot_dict("features", "-", np.array([j.limits for j in robot.joints])), context={"units": {"length": "mm", "angle": "rad"}}))
+    for i, (target, (xyz, _)) in enumerate(zip(procedure.targets, sweeps), start=1):
+        rows = np.array([key == (target,) for key in points.keys])
+        frames = chain.link_frames_batch(points.q[rows])[:, i]
+        local = np.einsum("nij,nj->ni", np.linalg.inv(frames), np.c_[xyz, np.ones(len(xyz))])[:, :3]
+        for field, value in zip("xyz", local.mean(axis=0)):
+            set_value(f"{target}.{field}", value)
+    return theta, found

@@ -1,0 +1,41 @@
+"""The identification method a spec asks for: least squares, or Stone's features (then least squares from them)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from armcal.dataio.measurements import Measurements
+from armcal.devices import device_model
+from armcal.identify.feature_fit import feature_parameters
+from armcal.identify.features import FeatureIdentification
+from armcal.identify.fit import FitResult, fit
+from armcal.identify.problem import Problem
+from armcal.spec.model import Spec
+
+
+@dataclass(frozen=True)
+class Identified:
+    """The reported parameter values, and the least-squares fit behind or beside them."""
+
+    theta: np.ndarray
+    std: np.ndarray  # NaN where the method gives no uncertainty
+    least_squares: FitResult
+    features: FeatureIdentification | None = None
+    feature_theta: np.ndarray | None = None
+
+    @property
+    def method(self) -> str:
+        return "s_model_features" if self.features is not None else "least_squares"
+
+
+def identify_parameters(spec: Spec, problem: Problem, raw: Measurements) -> Identified:
+    """Run ``spec.fit.method`` on a problem built from ``raw`` calibration data."""
+    if spec.fit.method == "least_squares":
+        result = fit(problem, spec.fit)
+        return Identified(result.theta, result.std, result)
+    points = device_model(spec, "points").prepare(raw)
+    theta, found = feature_parameters(spec, points, problem.parameters)
+    compared = fit(problem, spec.fit, start=theta)  # the full least-squares fit, started from the features
+    return Identified(theta, np.full(len(theta), np.nan), compared, found, theta)

@@ -13,6 +13,7 @@ from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
 from armcal.errors import UserError
 from armcal.evaluate.features import evaluation
+from armcal.evaluate.grid import grid_evaluation
 from armcal.evaluate.residuals import before_after, improvement, residual_unit
 from armcal.fileio import write_text_atomic
 from armcal.identify.methods import identify_parameters
@@ -21,6 +22,8 @@ from armcal.kinematics.compiler import compile_robot
 from armcal.results.build import build_results, parameter_rows
 from armcal.results.calibrated import calibrated_yaml
 from armcal.results.model import Results
+from armcal.simulate import find_truth
+from armcal.simulate.truth import TrueRobot
 from armcal.spec import LoadedSpec, load_spec
 
 CERTIFICATE_FILES = ("certificate.pdf", "certificate.html")
@@ -58,7 +61,9 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False) -> Ou
     problem = build_problem(kinematics, device, calibration)
     identified = identify_parameters(spec, problem, raw)
     validation_problem = build_problem(kinematics, device, validation) if validation else None
-    results = _results(loaded, problem, identified, validation_problem, calibration)
+    truth = find_truth(calibration_path)
+    grid = grid_evaluation(kinematics, kinematics.parameters.nominal, identified.theta[: problem.n_robot], TrueRobot.from_record(kinematics, truth), spec.robot.units) if truth else None
+    results = _results(loaded, problem, identified, validation_problem, calibration, grid)
     _write(loaded, results, identified, problem, out_dir)
     return Outcome(results, out_dir)
 
@@ -77,7 +82,7 @@ def _refuse_overwrite(out_dir: Path, force: bool) -> None:
         raise UserError(f"{out_dir / existing[0]} exists; use --force to replace the certificate")
 
 
-def _results(loaded: LoadedSpec, problem, identified, validation_problem, calibration) -> Results:
+def _results(loaded: LoadedSpec, problem, identified, validation_problem, calibration, grid: dict | None) -> Results:
     spec = loaded.spec
     device_type = spec.device.type
     kind, unit = residual_unit(device_type)
@@ -109,7 +114,7 @@ def _results(loaded: LoadedSpec, problem, identified, validation_problem, calibr
             "validation": improvement(validation_pair) if validation_pair else None,
         },
         diagnosis={"rounds": [], "added_effects": [], "unexplained": bool(uncertainty.scaled)},
-        evaluation=evaluation(loaded, problem, identified, validation_problem),
+        evaluation={**evaluation(loaded, problem, identified, validation_problem), **({"grid_task": grid} if grid else {})},
         solver={
             "method": identified.method,
             "iterations": result.solver.iterations,

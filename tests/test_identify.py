@@ -10,7 +10,7 @@ from armcal.identify.identifiability import analyse
 from armcal.identify.problem import build_problem
 from armcal.spec.sections import Fit
 
-FEWER_SHELL_POINTS = [("  longitudes: 26", "  longitudes: 10"), ("  longitudes: 32", "  longitudes: 10")]
+FEWER_SHELL_POINTS = [("  longitudes: 23", "  longitudes: 10"), ("  longitudes: 28", "  longitudes: 10")]
 CASES = {
     "sonic": ("puma560_dh.yaml", []),
     "ballbar": ("goswami_puma560.yaml", FEWER_SHELL_POINTS),

@@ -79,3 +79,21 @@ def test_stones_feature_method_beside_least_squares(tmp_path):
     least_squares_rms = block["residuals"]["least_squares"]["rms"]
     assert least_squares_rms <= features_rms < 1.5 * least_squares_rms  # features come close; the full fit does better
     assert results.residuals.calibration.after.rms == pytest.approx(features_rms)
+
+
+def test_grid_task_design_versus_calibrated_control(tmp_path):
+    """With the simulation's truth beside the data, the run controls the true robot both ways (Stone 6.6)."""
+    outcome = run(ROOT / "examples" / "goswami_ballbar" / "spec.yaml", tmp_path)
+    rows = {r["index"]: r for r in outcome.results.evaluation["grid_task"]["indices"]}
+    assert len(rows) == 34
+    for vertex in (1, 4, 5, 8):
+        radial = rows[f"vertex {vertex} radial"]
+        assert radial["calibrated"] < radial["design"] / 5  # calibrated control lands closer, on the true robot
+
+
+def test_no_grid_task_without_the_datas_truth(tmp_path):
+    import shutil
+
+    for name in ("spec.yaml", "calibration.csv", "validation.csv"):  # the data without their truth.json
+        shutil.copy(ROOT / "examples" / "theodolite" / name, tmp_path / name)
+    assert "grid_task" not in run(tmp_path / "spec.yaml", tmp_path / "out").results.evaluation

@@ -93,7 +93,7 @@ def test_hidden_gear_harmonic_is_the_joint_error_it_declares():
 
 
 def test_shell_poses_lie_within_joint_limits_and_lvdt_travel(tmp_path):
-    loaded = _spec(tmp_path, "goswami_puma560", [("  longitudes: 26", "  longitudes: 8")])
+    loaded = _spec(tmp_path, "goswami_puma560", [("  longitudes: 23", "  longitudes: 8")])
     spec = loaded.spec
     kinematics, device = compile_robot(spec.robot), device_model(spec)
     planned = plan(spec.procedure, kinematics, device, spec, tmp_path)

@@ -28,3 +28,21 @@ def test_iso9283_points_lie_on_the_diagonal_plane_at_ten_percent_from_the_corner
     for point in P[1:]:
         assert np.linalg.norm(point - centre) == pytest.approx(0.4 * diagonal)
         assert (point - centre)[0] == pytest.approx((point - centre)[1])  # plane x = y through the centre
+
+
+def test_grid_indices_of_known_distortions():
+    from armcal.evaluate.grid import grid_indices
+
+    desired = grid_task()
+    assert len(grid_indices(desired, desired)) == 34
+    assert max(abs(v) for v in grid_indices(desired, desired).values()) < 1e-9
+    stretched = desired.copy()
+    stretched[:, :3, 3] *= 1.001  # every length 0.1 % long, shapes and angles kept
+    indices = grid_indices(stretched, desired)
+    assert indices["line 1 length"] == pytest.approx(0.6)  # 600 mm line
+    assert indices["line 9 length"] == pytest.approx(0.5)  # 500 mm along Z
+    assert abs(indices["X-Y perpendicularity"]) < 1e-9 and indices["line 1 normal deviation"] < 1e-9
+    sheared = desired.copy()
+    sheared[:, 0, 3] += 0.002 * sheared[:, 1, 3]  # x leans with y: X-Y no longer square
+    assert indices["vertex 4 radial"] == pytest.approx(np.linalg.norm(desired[3, :3, 3]) * 0.001)
+    assert grid_indices(sheared, desired)["X-Y perpendicularity"] == pytest.approx(-0.002, rel=1e-3)

@@ -1,12 +1,14 @@
 """Inverse kinematics by Newton-Raphson, Stone (5.4), for many goals at once.
 
-q_{k+1} = q_k - J^+(q_k) delta_k, with delta the differential translation and
-rotation between the reached and the desired frame in base coordinates, and J
-its Jacobian with respect to q from CasADi automatic differentiation. J^+ is a
-damped least-squares inverse, which equals J^-1 for a square, regular J and
-stays stable near degenerate configurations (5.2's caveat). A goal is either a
-full pose (position and rotation) or a point with an approach axis (the
-frame's z axis), which leaves the rotation about that axis free.
+q_{k+1} = q_k - J^+(q_k) delta_k, with delta the difference between the reached
+and the desired frame in base coordinates and J its Jacobian with respect to q
+from CasADi automatic differentiation. J^+ is a damped least-squares inverse,
+stable near degenerate configurations (5.2's caveat). A goal is either a full
+pose or a point with an approach axis (the frame's z axis), which leaves the
+rotation about that axis free. The rotational part of delta is the difference
+of the frame's axis columns: it vanishes only at the goal, whereas the usual
+differential rotation 1/2 sum(axis x axis*) also vanishes at a half turn and can
+lead Newton to a flipped frame.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ class IKResult:
     q: np.ndarray  # (N, n)
     converged: np.ndarray  # (N,) position within tol_position and rotation within tol_rotation
     position_error: np.ndarray  # (N,) mm
-    rotation_error: np.ndarray  # (N,) rad
+    rotation_error: np.ndarray  # (N,) norm of the axis-column differences (~ rad for small errors)
 
 
 def _error_function(model: KinematicModel, frame: str | None, full_pose: bool) -> ca.Function:
@@ -36,11 +38,8 @@ def _error_function(model: KinematicModel, frame: str | None, full_pose: bool) -
     T = model.fk(q, p) if frame is None else model.targets[frame](q, p)
     goal = ca.SX.sym("goal", 12 if full_pose else 6)
     position = T[:3, 3] - goal[:3]
-    if full_pose:  # differential rotation 1/2 sum(axis x axis*), Luh-Walker-Paul
-        rotation = 0.5 * sum(ca.cross(T[:3, i], goal[3 + 3 * i : 6 + 3 * i]) for i in range(3))
-    else:
-        rotation = ca.cross(T[:3, 2], goal[3:6])
-    delta = ca.vertcat(position, rotation)
+    axes = ca.vertcat(T[:3, 0], T[:3, 1], T[:3, 2]) if full_pose else T[:3, 2]
+    delta = ca.vertcat(position, axes - goal[3:])
     return ca.Function("ik_error", [q, p, goal], [delta, ca.jacobian(delta, q)])
 
 
@@ -82,9 +81,10 @@ def solve(
 
 
 def _evaluate(function: ca.Function, Q: np.ndarray, p: np.ndarray, goals: np.ndarray):
-    """delta (N, 6) and its Jacobian (N, 6, n) for N configurations, one mapped call."""
+    """delta (N, m) and its Jacobian (N, m, n) for N configurations, one mapped call."""
     delta, jac = function.map(len(Q))(Q.T, p, goals.T)
-    return np.array(delta).T, np.array(jac).reshape(6, len(Q), Q.shape[1]).transpose(1, 0, 2)
+    m = goals.shape[1]
+    return np.array(delta).T, np.array(jac).reshape(m, len(Q), Q.shape[1]).transpose(1, 0, 2)
 
 
 def _done(delta: np.ndarray, tol_position: float, tol_rotation: float) -> np.ndarray:
@@ -132,5 +132,44 @@ def jacobi(
             break
     reached = signature.tool_poses(Q, p_signature)
     delta_p = np.linalg.norm(reached[:, :3, 3] - targets[:, :3, 3], axis=1)
-    delta_r = np.linalg.norm(0.5 * sum(np.cross(reached[:, :3, i], targets[:, :3, i]) for i in range(3)), axis=1)
+    delta_r = np.linalg.norm((reached[:, :3, :3] - targets[:, :3, :3]).reshape(len(Q), 9), axis=1)
     return IKResult(Q, converged, delta_p, delta_r)
+
+
+def solve_from_starts(
+    model: KinematicModel,
+    goals: np.ndarray,
+    frame: str | None = None,
+    p: np.ndarray | None = None,
+    starts: int = 12,
+    seed: int = 0,
+) -> np.ndarray:
+    """Configurations (M, n) reaching M goals within the joint limits; NaN rows where none does.
+
+    Each goal is tried from the middle of the limits and ``starts`` random
+    configurations; of the solutions within limits the one closest to the middle
+    is kept, so that neighbouring goals share one arm configuration.
+    """
+    goals = np.atleast_2d(goals)
+    rng = np.random.default_rng(seed)
+    low, high = model.limits[:, 0], model.limits[:, 1]
+    middle = (low + high) / 2
+    seeds = np.vstack([middle, rng.uniform(low, high, (starts, model.dof))])
+    count = len(goals)
+    result = solve(model, np.repeat(goals, len(seeds), axis=0), np.tile(seeds, (count, 1)), frame=frame, p=p, tol_position=1e-4, tol_rotation=1e-6)
+    Q = wrap_into_limits(model, result.q)
+    good = result.converged & within_limits(model, Q)
+    distance = np.where(good, np.linalg.norm((Q - middle) / (high - low), axis=1), np.inf).reshape(count, len(seeds))
+    chosen = Q.reshape(count, len(seeds), -1)[np.arange(count), distance.argmin(axis=1)]
+    chosen[~np.isfinite(distance.min(axis=1))] = np.nan
+    return chosen
+
+
+def wrap_into_limits(model: KinematicModel, Q: np.ndarray) -> np.ndarray:
+    """Revolute joint values shifted by whole turns into their limits where possible."""
+    Q = Q.copy()
+    for i, kind in enumerate(model.joint_types):
+        if kind == "revolute":
+            low = model.limits[i, 0]
+            Q[:, i] = low + np.mod(Q[:, i] - low, 2 * np.pi)
+    return Q

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 from pathlib import Path
 
@@ -29,10 +30,21 @@ def write_simulation(loaded: LoadedSpec, out_dir: Path) -> tuple[Campaign, list[
             path = Path(out_dir) / name
             write_measurements(path, measurements, loaded.spec)
             written.append(path)
-    truth = {"spec_sha256": loaded.sha256, "dropped_poses": campaign.dropped, **campaign.truth}
+    data = {path.name: hashlib.sha256(path.read_bytes()).hexdigest() for path in written}
+    truth = {"spec_sha256": loaded.sha256, "data_sha256": data, "dropped_poses": campaign.dropped, **campaign.truth}
     truth_path = Path(out_dir) / "truth.json"
     write_text_atomic(truth_path, json.dumps(truth, indent=1, sort_keys=True) + "\n")
     return campaign, [*written, truth_path]
 
 
-__all__ = ["Campaign", "simulate_campaign", "write_simulation"]
+def find_truth(data_file: Path) -> dict | None:
+    """The truth.json that ``armcal simulate`` wrote beside a data file, if these very data came from it."""
+    record_path = Path(data_file).parent / "truth.json"
+    if not record_path.exists():
+        return None
+    record = json.loads(record_path.read_text())
+    digest = hashlib.sha256(Path(data_file).read_bytes()).hexdigest()
+    return record if record.get("data_sha256", {}).get(Path(data_file).name) == digest else None
+
+
+__all__ = ["Campaign", "find_truth", "simulate_campaign", "write_simulation"]

@@ -14,11 +14,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from pydantic import TypeAdapter
 
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, rot_x, rot_y, rot_z, trans
 from armcal.simulate import effects as hidden
-from armcal.spec.sections import Simulate
+from armcal.spec.sections import Effect, Simulate
 
 
 def _error_transform(rng: np.random.Generator, sigma_p: float, sigma_o: float) -> np.ndarray:
@@ -48,16 +49,31 @@ class TrueRobot:
                 p[i] += settings.sigma_p * rng.normal()
         return TrueRobot(kinematics, p, link_errors, encoder_errors, tuple(settings.effects))
 
+    @staticmethod
+    def from_record(kinematics: KinematicModel, record: dict) -> "TrueRobot":
+        """The robot described by truth.json (as written by ``describe``)."""
+        context = {"units": {"length": "mm", "angle": "rad"}}
+        effects = tuple(TypeAdapter(Effect).validate_python(e, context=context) for e in record["hidden_effects"])
+        p = np.array([record["parameters"][name] for name in kinematics.parameters.names])
+        return TrueRobot(kinematics, p, np.array(record["link_errors"]), np.array(record["encoder_errors"]), effects)
+
     def target_poses(self, name: str, Q: np.ndarray, extras: dict) -> np.ndarray:
         """True poses (N, 4, 4) of a target at joint readings Q (N, n)."""
+        return self._poses(Q, extras, self.kinematics.target_links[name], lambda q: self.kinematics.target_poses(name, q, self.p))
+
+    def tool_poses(self, Q: np.ndarray, extras: dict) -> np.ndarray:
+        """True tool poses (N, 4, 4) at joint readings Q (N, n)."""
+        return self._poses(Q, extras, self.kinematics.dof, lambda q: self.kinematics.tool_poses(q, self.p))
+
+    def _poses(self, Q: np.ndarray, extras: dict, link: int, nominal) -> np.ndarray:
+        """A frame fixed on ``link``, carried by the true chain: its nominal offset from the link frame kept."""
         Q = np.atleast_2d(Q)
         nominal_frames = self.kinematics.link_frames_batch(Q, self.p)
         Q_true = Q + self.encoder_errors + hidden.joint_deviation(list(self.effects), Q, extras, nominal_frames)
         frames = self.kinematics.link_frames_batch(Q_true, self.p)
         scale = hidden.length_scale(list(self.effects), extras, len(Q))
         true_frames = self._true_frames(frames, scale)
-        link = self.kinematics.target_links[name]
-        offset = np.einsum("nij,njk->nik", _inverse_batch(frames[:, link]), self.kinematics.target_poses(name, Q_true, self.p))
+        offset = np.einsum("nij,njk->nik", _inverse_batch(frames[:, link]), nominal(Q_true))
         offset[:, :3, 3] *= scale[:, None]
         return np.einsum("nij,njk->nik", true_frames[:, link], offset)
 

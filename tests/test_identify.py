@@ -86,3 +86,21 @@ def test_uncertainties_cover_the_truth_95_percent_of_the_time():
         inside.append(np.abs(z) <= 1.959964)
     coverage = np.mean(np.concatenate(inside))
     assert 0.93 <= coverage <= 0.97, coverage
+
+
+def test_robust_loss_lists_gross_errors_and_keeps_the_fit():
+    """5 % of readings off by 50 sigma: the linear fit is pulled away, Huber's is not and names them."""
+    s = setup(SPECS / "puma560_six.yaml")
+    rng = np.random.default_rng(21)
+    theta_true = truth(s, rng)
+    data = measure(s.kinematics, s.device, s.plans[0], theta_true, rng)
+    clean = fit(build_problem(s.kinematics, s.device, data), Fit())
+    bad = rng.choice(len(data), size=len(data) // 20, replace=False)
+    data.readings["x"][bad] += 50 * s.device.spec.noise * rng.choice([-1, 1], size=len(bad))
+    problem = build_problem(s.kinematics, s.device, data)
+    plain = fit(problem, Fit())
+    robust = fit(problem, Fit(loss="huber"))
+    error = lambda r: np.abs((r.theta - theta_true)[clean.base] / clean.uncertainty.std).max()  # noqa: E731
+    assert error(plain) > 3.0 and error(robust) < 3.0
+    flagged = set(problem.residuals.sample[robust.outliers])
+    assert set(bad) <= flagged and len(flagged) < 2 * len(bad)

@@ -46,9 +46,9 @@ setup() { system_deps; venv; }
 
 demo() {
     setup
-    local spec=examples/puma560_sonic/spec.yaml
+    local spec=examples/goswami_ballbar/spec.yaml
     "$VENV/bin/armcal" validate "$spec"
-    "$VENV/bin/armcal" fk "$spec" --q "0,-90,180,0,0,0"
+    "$VENV/bin/armcal" run "$spec" --force
 }
 
 tests() {

@@ -8,13 +8,11 @@ Only lengths within the LVDT travel around the bar's mid-travel length are reada
 
 from __future__ import annotations
 
-from functools import cache
-
 import casadi as ca
 import numpy as np
 
-from armcal.devices.base import Channel, DeviceModel, Key, symbols
-from armcal.kinematics.params import ParameterInfo, ParameterSet, pose_entries
+from armcal.devices.base import Channel, DeviceModel, Key
+from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.spec.device import BallBar
 
 
@@ -26,8 +24,7 @@ class BallBarModel(DeviceModel):
         entries = []
         for name, point in spec.pivots.items():
             entries += pose_entries(f"pivot.{name}", point, ("x", "y", "z"))
-        length = spec.length
-        entries.append(ParameterInfo("bar.length", "length", length.value, length.vary, length.min, length.max))
+        entries.append(parameter_entry("bar.length", "length", spec.length))
         self.parameters = ParameterSet(tuple(entries))
 
     def channels(self, key: Key) -> tuple[Channel, ...]:
@@ -44,15 +41,9 @@ class BallBarModel(DeviceModel):
         """Nominal centre-to-centre length at mid-travel, with the key's extension rod."""
         return self.spec.length.value + self.extension(key)
 
-    @cache
-    def geometry(self, key: Key) -> ca.Function:
-        pivot, _, _ = key
-        pose = ca.SX.sym("T", 4, 4)
-        pd = ca.SX.sym("pd", len(self.parameters))
-        sym = symbols(self.parameters, pd)
-        centre = ca.vertcat(*(sym[f"pivot.{pivot}.{c}"] for c in "xyz"))
-        reading = ca.norm_2(pose[:3, 3] - centre) + self.spec.length.value - sym["bar.length"]
-        return ca.Function("g_ballbar", [pose, pd], [reading], ["T", "pd"], ["y"])
+    def readings(self, key: Key, pose: ca.SX, sym: dict) -> ca.SX:
+        centre = ca.vertcat(*(sym[f"pivot.{key[0]}.{c}"] for c in "xyz"))
+        return ca.norm_2(pose[:3, 3] - centre) + self.spec.length.value - sym["bar.length"]
 
     def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
         return np.full(np.shape(np.atleast_2d(readings)), self.spec.noise)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from functools import cache
 
 import casadi as ca
 import numpy as np
@@ -43,8 +44,16 @@ class DeviceModel(ABC):
         """The robot target measured by samples of this key (None: not on the robot)."""
 
     @abstractmethod
+    def readings(self, key: Key, pose: ca.SX, sym: dict[str, ca.SX]) -> ca.SX:
+        """The readings of one sample, from the target's pose (4x4, robot base frame) and device parameters."""
+
+    @cache
     def geometry(self, key: Key) -> ca.Function:
-        """g(T[4x4] pose of the target in the robot base frame, pd) -> readings."""
+        """g(T[4x4] pose of the target in the robot base frame, pd) -> readings, one Function per key."""
+        pose = ca.SX.sym("T", 4, 4)
+        pd = ca.SX.sym("pd", len(self.parameters))
+        readings = self.readings(key, pose, symbols(self.parameters, pd))
+        return ca.Function(f"g_{self.type}", [pose, pd], [readings], ["T", "pd"], ["y"])
 
     @abstractmethod
     def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:

@@ -8,14 +8,12 @@ origin at microphone C, y towards B and z out of the plane of A, B, C.
 
 from __future__ import annotations
 
-from functools import cache
-
 import casadi as ca
 import numpy as np
 
-from armcal.devices.base import Channel, DeviceModel, Key, symbols, transform_point
+from armcal.devices.base import Channel, DeviceModel, Key, transform_point
 from armcal.kinematics.compiler import pose_from_symbols
-from armcal.kinematics.params import ParameterInfo, ParameterSet, pose_entries
+from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.devices.sound import ROD_NEAR
 from armcal.kinematics.transforms import xyz_zyx
 from armcal.spec.device import SonicDigitizer
@@ -61,7 +59,7 @@ class SonicModel(DeviceModel):
         entries = pose_entries("robot_base", spec.robot_base)
         for name, point in spec.microphones.items():
             entries += pose_entries(f"mic.{name}", point, ("x", "y", "z"))
-        entries.append(ParameterInfo("sonic.scale", "scale", spec.scale.value, spec.scale.vary, spec.scale.min, spec.scale.max))
+        entries.append(parameter_entry("sonic.scale", "scale", spec.scale))
         self.parameters = ParameterSet(tuple(entries))
         nominal = dict(zip(self.parameters.names, self.parameters.nominal))
         self.nominal_microphones = {m: np.array([nominal[f"mic.{m}.{c}"] for c in "xyz"]) for m in self.microphones}
@@ -74,22 +72,16 @@ class SonicModel(DeviceModel):
     def target(self, key: Key) -> str | None:
         return key[0]
 
-    @cache
-    def geometry(self, key: Key) -> ca.Function:
-        pose = ca.SX.sym("T", 4, 4)
-        pd = ca.SX.sym("pd", len(self.parameters))
-        sym = symbols(self.parameters, pd)
+    def readings(self, key: Key, pose: ca.SX, sym: dict) -> ca.SX:
         point = transform_point(pose_from_symbols(sym, "robot_base"), pose[:3, 3])
         ranges = {
             m: sym["sonic.scale"] * ca.norm_2(point - ca.vertcat(*(sym[f"mic.{m}.{c}"] for c in "xyz")))
             for m in self.microphones
         }
         if self.mode == "ranges":
-            readings = ca.vertcat(*ranges.values())
-        else:  # the instrument triangulates with its nominal geometry
-            w = microphone_distances(self.nominal_microphones)
-            readings = ca.vertcat(*triangulate(*(ranges[m] for m in PRIMARY), *w))
-        return ca.Function("g_sonic", [pose, pd], [readings], ["T", "pd"], ["y"])
+            return ca.vertcat(*ranges.values())
+        w = microphone_distances(self.nominal_microphones)  # the instrument triangulates with its nominal geometry
+        return ca.vertcat(*triangulate(*(ranges[m] for m in PRIMARY), *w))
 
     def range_sigma(self, ranges: np.ndarray) -> np.ndarray:
         """sigma = a * range + b (7.9), reduced by averaging N_avg readings.

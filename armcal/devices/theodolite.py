@@ -9,12 +9,10 @@ network only up to scale; a scale bar's two marks, sighted like targets (key
 
 from __future__ import annotations
 
-from functools import cache
-
 import casadi as ca
 import numpy as np
 
-from armcal.devices.base import Channel, DeviceModel, Key, symbols, transform_point
+from armcal.devices.base import Channel, DeviceModel, Key, transform_point
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, pose_entries
 from armcal.spec.device import Theodolite
@@ -59,20 +57,14 @@ class TheodoliteModel(DeviceModel):
     def target(self, key: Key) -> str | None:
         return None if key == BAR_LENGTH or key[1] in BAR_ENDS else key[1]
 
-    @cache
-    def geometry(self, key: Key) -> ca.Function:
-        pose = ca.SX.sym("T", 4, 4)
-        pd = ca.SX.sym("pd", len(self.parameters))
-        sym = symbols(self.parameters, pd)
+    def readings(self, key: Key, pose: ca.SX, sym: dict) -> ca.SX:
         end = lambda name: ca.vertcat(*(sym[f"{name}.{c}"] for c in "xyz"))  # noqa: E731
         if key == BAR_LENGTH:
-            readings = ca.norm_2(end(BAR_ENDS[1]) - end(BAR_ENDS[0]))
-        else:
-            station, target = key
-            world = end(target) if target in BAR_ENDS else transform_point(pose_from_symbols(sym, "robot_base"), pose[:3, 3])
-            local = transform_point(_inverse(pose_from_symbols(sym, f"station.{station}")), world)
-            readings = ca.vertcat(ca.atan2(local[1], local[0]), ca.atan2(local[2], ca.sqrt(local[0] ** 2 + local[1] ** 2)))
-        return ca.Function("g_theodolite", [pose, pd], [readings], ["T", "pd"], ["y"])
+            return ca.norm_2(end(BAR_ENDS[1]) - end(BAR_ENDS[0]))
+        station, target = key
+        world = end(target) if target in BAR_ENDS else transform_point(pose_from_symbols(sym, "robot_base"), pose[:3, 3])
+        local = transform_point(_inverse(pose_from_symbols(sym, f"station.{station}")), world)
+        return ca.vertcat(ca.atan2(local[1], local[0]), ca.atan2(local[2], ca.sqrt(local[0] ** 2 + local[1] ** 2)))
 
     def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
         shape = np.shape(np.atleast_2d(readings))

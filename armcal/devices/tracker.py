@@ -7,14 +7,12 @@ Euler angles of the target frame in the instrument frame (R = Rx Ry Rz).
 
 from __future__ import annotations
 
-from functools import cache
-
 import casadi as ca
 import numpy as np
 
-from armcal.devices.base import Channel, DeviceModel, Key, symbols
+from armcal.devices.base import Channel, DeviceModel, Key
 from armcal.kinematics.compiler import pose_from_symbols
-from armcal.kinematics.params import ParameterInfo, ParameterSet, pose_entries
+from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.spec.device import Tracker
 
 POSITION = tuple(Channel(c, "length") for c in ("x", "y", "z"))
@@ -35,8 +33,7 @@ class TrackerModel(DeviceModel):
     def __init__(self, spec: Tracker):
         self.spec = spec
         entries = pose_entries("robot_base", spec.robot_base)
-        scale = spec.scale
-        entries.append(ParameterInfo("tracker.scale", "scale", scale.value, scale.vary, scale.min, scale.max))
+        entries.append(parameter_entry("tracker.scale", "scale", spec.scale))
         self.parameters = ParameterSet(tuple(entries))
 
     def channels(self, key: Key) -> tuple[Channel, ...]:
@@ -45,16 +42,12 @@ class TrackerModel(DeviceModel):
     def target(self, key: Key) -> str | None:
         return key[0]
 
-    @cache
-    def geometry(self, key: Key) -> ca.Function:
-        pose = ca.SX.sym("T", 4, 4)
-        pd = ca.SX.sym("pd", len(self.parameters))
-        sym = symbols(self.parameters, pd)
+    def readings(self, key: Key, pose: ca.SX, sym: dict) -> ca.SX:
         seen = ca.mtimes(pose_from_symbols(sym, "robot_base"), pose)
         readings = [sym["tracker.scale"] * seen[:3, 3]]
         if self.spec.orientation:
             readings += list(intrinsic_xyz(seen[:3, :3]))
-        return ca.Function("g_tracker", [pose, pd], [ca.vertcat(*readings)], ["T", "pd"], ["y"])
+        return ca.vertcat(*readings)
 
     def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
         readings = np.atleast_2d(readings)

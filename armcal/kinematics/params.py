@@ -77,7 +77,8 @@ class ParameterSet:
         return dict(zip(self.names, np.asarray(p, dtype=float)))
 
 
-def _entry(name: str, kind: str, parameter: Parameter) -> ParameterInfo:
+def parameter_entry(name: str, kind: str, parameter: Parameter) -> ParameterInfo:
+    """The entry of one spec parameter."""
     return ParameterInfo(name, kind, parameter.value, parameter.vary, parameter.min, parameter.max)
 
 
@@ -87,7 +88,7 @@ def pose_entries(prefix: str, pose, fields=POSE_FIELDS) -> list[ParameterInfo]:
     for field in fields:
         parameter = getattr(pose, field)
         if parameter is not None:
-            out.append(_entry(f"{prefix}.{field}", field_kind(field), parameter))
+            out.append(parameter_entry(f"{prefix}.{field}", field_kind(field), parameter))
     return out
 
 
@@ -98,7 +99,7 @@ def parameter_set(robot: RobotBase) -> ParameterSet:
     for i, (name, joint) in enumerate(zip(robot.joint_names(), robot.joints), start=1):  # type: ignore[attr-defined]
         if isinstance(robot, SixParameterRobot):
             entries += pose_entries(f"L{i}", robot.links[i - 1], LINK_FIELDS)
-        entries += [_entry(f"{name}.{f}", field_kind(f, joint.type), getattr(joint, f)) for f in fields]
+        entries += [parameter_entry(f"{name}.{f}", field_kind(f, joint.type), getattr(joint, f)) for f in fields]
     if isinstance(robot, SixParameterRobot):
         entries += pose_entries(f"L{robot.dof + 1}", robot.links[robot.dof], LINK_FIELDS)
     entries += pose_entries("tool", robot.tool)

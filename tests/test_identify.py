@@ -104,3 +104,24 @@ def test_robust_loss_lists_gross_errors_and_keeps_the_fit():
     assert error(plain) > 3.0 and error(robust) < 3.0
     flagged = set(problem.residuals.sample[robust.outliers])
     assert set(bad) <= flagged and len(flagged) < 2 * len(bad)
+
+
+def test_compiled_functions_are_cached_and_equal_the_interpreted_ones(tmp_path, monkeypatch):
+    """The compiled library is built once per setup, reused by later problems, and gives identical numbers."""
+    monkeypatch.setenv("ARMCAL_CACHE", str(tmp_path))
+    s = setup(SPECS / "puma560_theodolite.yaml")
+    data = measure(s.kinematics, s.device, s.plans[0], None, None)
+    first = build_problem(s.kinematics, s.device, data)
+    libraries = list(tmp_path.glob("*.so"))
+    assert len(libraries) == 1
+    built = libraries[0].stat().st_mtime_ns
+    second = build_problem(s.kinematics, s.device, data)
+    assert libraries[0].stat().st_mtime_ns == built  # loaded, not rebuilt
+    monkeypatch.setenv("CC", "no-such-compiler")
+    monkeypatch.setenv("PATH", "")
+    interpreted = build_problem(s.kinematics, s.device, data)
+    theta = first.parameters.nominal + 1e-3
+    for other in (second, interpreted):
+        r1, J1 = first.evaluate(theta)
+        r2, J2 = other.evaluate(theta)
+        assert np.abs(r1 - r2).max() < 1e-12 and np.abs(J1 - J2).max() < 1e-9

@@ -34,6 +34,12 @@ class DeviceModel(ABC):
 
     type: str
     parameters: ParameterSet
+    spec: object  # the device section of the spec
+
+    @property
+    def identity(self) -> str:
+        """Canonical form of what defines the model's functions."""
+        return f"{self.spec.model_dump_json()}|{getattr(self, 'mode', '')}"
 
     @abstractmethod
     def channels(self, key: Key) -> tuple[Channel, ...]:

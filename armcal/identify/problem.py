@@ -3,8 +3,9 @@
 theta = [robot parameters; device parameters]. Each sample contributes one
 residual per reading, (predicted - measured) / sigma with sigma from the
 device's noise model (angles wrapped to [-pi, pi]). The samples of each key are
-evaluated by one mapped CasADi call that also returns the exact Jacobian, from
-automatic differentiation of the measurement function (never finite differences).
+evaluated by one mapped call of a compiled function (identify/compiled.py) that
+also returns the exact Jacobian, from automatic differentiation of the
+measurement function (never finite differences).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import numpy as np
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key
 from armcal.devices.theodolite import BAR_LENGTH, TheodoliteModel
+from armcal.identify.compiled import compiled
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterInfo, ParameterSet
 
@@ -79,12 +81,12 @@ def combined_parameters(kinematics: KinematicModel, device: DeviceModel) -> Para
     return ParameterSet(kinematics.parameters.entries + device.parameters.entries)
 
 
-def _value_and_jacobian(kinematics: KinematicModel, device: DeviceModel, key: Key, count: int) -> ca.Function:
+def _value_and_jacobian(kinematics: KinematicModel, device: DeviceModel, key: Key) -> ca.Function:
+    """(q, p, pd) -> (readings, d readings / d [p; pd]) of one sample of a key."""
     h = device.measurement_function(kinematics, key)
     q, p, pd = (ca.SX.sym(n, h.size1_in(i)) for i, n in enumerate(("q", "p", "pd")))
     y = h(q, p, pd)
-    f = ca.Function("hj", [q, p, pd], [y, ca.jacobian(y, ca.vertcat(p, pd))])
-    return f.map(count)
+    return ca.Function("hj", [q, p, pd], [y, ca.jacobian(y, ca.vertcat(p, pd))])
 
 
 def build_problem(kinematics: KinematicModel, device: DeviceModel, data: Measurements) -> Problem:
@@ -94,7 +96,11 @@ def build_problem(kinematics: KinematicModel, device: DeviceModel, data: Measure
     key_rows = data.groups()
     if isinstance(device, TheodoliteModel) and device.spec.scale_bar is not None:
         key_rows[BAR_LENGTH] = np.array([-1])
+    canonical = sorted(key_rows, key=str)  # one library serves every data set with the same keys
+    identity = f"{kinematics.identity}|{device.identity}|{[str(k) for k in canonical]}"
+    functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, k) for k in canonical], identity)))
     for key, rows in key_rows.items():
+        function = functions[key]
         key_channels = device.channels(key)
         if key == BAR_LENGTH:  # the bar's calibrated length, a pseudo-observation from the spec
             y = np.array([[device.spec.scale_bar.length]])
@@ -105,7 +111,7 @@ def build_problem(kinematics: KinematicModel, device: DeviceModel, data: Measure
         sigma = device.sigma(key, y)
         valid = ~np.isnan(y)
         angle = np.array([c.kind == "angle" for c in key_channels])
-        groups.append(_Group(_value_and_jacobian(kinematics, device, key, len(rows)), Q, y, sigma, angle, valid))
+        groups.append(_Group(function.map(len(rows)), Q, y, sigma, angle, valid))
         for c, channel in enumerate(key_channels):
             ok = valid[:, c]
             samples.append(rows[ok])

@@ -2,10 +2,10 @@
 
 theta = [robot parameters; device parameters]. Each sample contributes one
 residual per reading, (predicted - measured) / sigma with sigma from the
-device's noise model (angles wrapped to [-pi, pi]). The samples of each key are
-evaluated by one mapped call of a compiled function (identify/compiled.py) that
-also returns the exact Jacobian, from automatic differentiation of the
-measurement function (never finite differences).
+device's noise model (angles wrapped to [-pi, pi]). One CasADi Function of
+theta evaluates every sample: for each key a mapped call of a compiled function
+(identify/compiled.py) that returns the readings and their exact Jacobian, from
+automatic differentiation of the measurement function (never finite differences).
 """
 
 from __future__ import annotations
@@ -36,40 +36,16 @@ class Residual:
 
 
 @dataclass(frozen=True)
-class _Group:
-    """The samples of one key: a mapped Function (q, p, pd) -> (readings, d readings / d theta)."""
-
-    function: ca.Function
-    Q: np.ndarray  # (N, n)
-    measured: np.ndarray  # (N, m)
-    sigma: np.ndarray  # (N, m)
-    angle: np.ndarray  # (m,) bool: wrap the difference
-    valid: np.ndarray  # (N, m) bool
-
-
-@dataclass(frozen=True)
 class Problem:
     parameters: ParameterSet  # robot then device parameters
     n_robot: int
-    groups: tuple[_Group, ...]
+    function: ca.Function  # theta -> (r (M,), J (M, n_theta)): all samples in one call
     residuals: Residual
 
     def evaluate(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Weighted residuals (M,) and their Jacobian (M, len(theta)); one mapped call per key."""
-        theta = np.asarray(theta, dtype=float)
-        p, pd = theta[: self.n_robot], theta[self.n_robot :]
-        rs, Js = [], []
-        for group in self.groups:
-            y, dy = group.function(group.Q.T, p, pd)
-            count, m = group.measured.shape
-            difference = np.array(y).T - group.measured  # (N, m)
-            difference[:, group.angle] = np.arctan2(np.sin(difference[:, group.angle]), np.cos(difference[:, group.angle]))
-            jacobian = np.array(dy).reshape(m, count, len(theta)).transpose(1, 0, 2)  # (N, m, n_theta)
-            for c in range(m):  # residuals ordered by reading, then sample
-                rows = group.valid[:, c]
-                rs.append(difference[rows, c] / group.sigma[rows, c])
-                Js.append(jacobian[rows, c, :] / group.sigma[rows, c, None])
-        return np.concatenate(rs), np.concatenate(Js)
+        """Weighted residuals (M,) and their Jacobian (M, len(theta))."""
+        r, J = self.function(np.asarray(theta, dtype=float))
+        return np.array(r).ravel(), np.array(J)
 
     def predicted(self, theta: np.ndarray) -> np.ndarray:
         """Predicted readings (M,) in internal units."""
@@ -92,15 +68,17 @@ def _value_and_jacobian(kinematics: KinematicModel, device: DeviceModel, key: Ke
 def build_problem(kinematics: KinematicModel, device: DeviceModel, data: Measurements) -> Problem:
     """Assemble residuals of all samples of ``data`` (already prepared by the device)."""
     parameters = combined_parameters(kinematics, device)
-    groups, samples, channels, kinds, keys, sigmas, measured = [], [], [], [], [], [], []
+    samples, channels, kinds, keys, sigmas, measured = [], [], [], [], [], []
     key_rows = data.groups()
     if isinstance(device, TheodoliteModel) and device.spec.scale_bar is not None:
         key_rows[BAR_LENGTH] = np.array([-1])
     canonical = sorted(key_rows, key=str)  # one library serves every data set with the same keys
     identity = f"{kinematics.identity}|{device.identity}|{[str(k) for k in canonical]}"
     functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, k) for k in canonical], identity)))
+    theta = ca.MX.sym("theta", len(parameters))
+    p, pd = theta[: len(kinematics.parameters)], theta[len(kinematics.parameters) :]
+    r_parts, J_parts = [], []
     for key, rows in key_rows.items():
-        function = functions[key]
         key_channels = device.channels(key)
         if key == BAR_LENGTH:  # the bar's calibrated length, a pseudo-observation from the spec
             y = np.array([[device.spec.scale_bar.length]])
@@ -109,17 +87,26 @@ def build_problem(kinematics: KinematicModel, device: DeviceModel, data: Measure
             y = np.stack([data.readings[c.name][rows] for c in key_channels], axis=1)
             Q = np.nan_to_num(data.q[rows])
         sigma = device.sigma(key, y)
-        valid = ~np.isnan(y)
-        angle = np.array([c.kind == "angle" for c in key_channels])
-        groups.append(_Group(function.map(len(rows)), Q, y, sigma, angle, valid))
+        count = len(rows)
+        value, jacobian = functions[key].map(count)(ca.DM(Q.T), p, pd)  # (m, N), (m, n_theta N)
         for c, channel in enumerate(key_channels):
-            ok = valid[:, c]
+            ok = np.flatnonzero(~np.isnan(y[:, c]))
+            if not len(ok):
+                continue
+            difference = value[c, ok.tolist()].T - ca.DM(y[ok, c])
+            if channel.kind == "angle":
+                difference = ca.atan2(ca.sin(difference), ca.cos(difference))
+            weight = ca.DM(1.0 / sigma[ok, c])
+            J_rows = ca.reshape(jacobian[c, :], len(parameters), count).T[ok.tolist(), :]
+            r_parts.append(difference * weight)
+            J_parts.append(J_rows * ca.repmat(weight, 1, len(parameters)))
             samples.append(rows[ok])
-            channels += [channel.name] * int(ok.sum())
-            kinds += [channel.kind] * int(ok.sum())
-            keys += [key] * int(ok.sum())
+            channels += [channel.name] * len(ok)
+            kinds += [channel.kind] * len(ok)
+            keys += [key] * len(ok)
             sigmas.append(sigma[ok, c])
             measured.append(y[ok, c])
+    function = ca.Function("residuals", [theta], [ca.vertcat(*r_parts), ca.vertcat(*J_parts)], ["theta"], ["r", "J"])
     residual = Residual(
         sample=np.concatenate(samples),
         channel=tuple(channels),
@@ -128,7 +115,7 @@ def build_problem(kinematics: KinematicModel, device: DeviceModel, data: Measure
         sigma=np.concatenate(sigmas),
         measured=np.concatenate(measured),
     )
-    return Problem(parameters, len(kinematics.parameters), tuple(groups), residual)
+    return Problem(parameters, len(kinematics.parameters), function, residual)
 
 
 def with_values(parameters: ParameterSet, values: np.ndarray) -> ParameterSet:

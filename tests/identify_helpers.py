@@ -1,6 +1,6 @@
 """Synthetic campaigns whose truth is known exactly: the fitted model with its base parameters moved."""
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +10,7 @@ from armcal.devices import device_model
 from armcal.identify.identifiability import analyse
 from armcal.identify.problem import build_problem
 from armcal.kinematics.compiler import compile_robot
+from armcal.kinematics.params import ParameterSet
 from armcal.procedures import plan
 from armcal.spec import load_spec
 
@@ -43,6 +44,19 @@ def setup(spec_path: Path, text_changes=()) -> Setup:
     names = analyse(J, probe.parameters, probe.parameters.free).base
     base = np.array([probe.parameters.index(n) for n in names])
     return Setup(spec, kinematics, device, plans, base)
+
+
+def restricted(problem, base: np.ndarray):
+    """The problem with exactly the truth's base parameters free, so the fit and the truth share one gauge.
+
+    Among near-equivalent columns the pivoted QR may pick another base set on
+    noisy data than on noise-free data; the robot is then the same but its
+    parameters are expressed differently, and comparing them one by one is moot.
+    """
+    free = np.zeros(len(problem.parameters), dtype=bool)
+    free[base] = True
+    entries = tuple(replace(e, free=bool(f)) for e, f in zip(problem.parameters.entries, free))
+    return replace(problem, parameters=ParameterSet(entries))
 
 
 def truth(s: Setup, rng) -> np.ndarray:

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 from conftest import SPECS
-from identify_helpers import measure, setup, truth
+from identify_helpers import measure, restricted, setup, truth
 
 from armcal.identify.fit import fit
 from armcal.identify.identifiability import analyse
@@ -31,7 +31,7 @@ def test_identified_parameters_match_the_truth(case):
     theta_true = truth(case, rng)
     calibration = measure(case.kinematics, case.device, case.plans[0], theta_true, rng)
     validation = measure(case.kinematics, case.device, case.plans[1], theta_true, rng)
-    problem = build_problem(case.kinematics, case.device, calibration)
+    problem = restricted(build_problem(case.kinematics, case.device, calibration), case.base)
     result = fit(problem, Fit())
     assert result.solver.converged
     z = (result.theta[result.base] - theta_true[result.base]) / result.uncertainty.std
@@ -81,7 +81,8 @@ def test_uncertainties_cover_the_truth_95_percent_of_the_time():
     for seed in range(100):
         rng = np.random.default_rng(1000 + seed)
         theta_true = truth(s, rng)
-        result = fit(build_problem(s.kinematics, s.device, measure(s.kinematics, s.device, s.plans[0], theta_true, rng)), Fit())
+        data = measure(s.kinematics, s.device, s.plans[0], theta_true, rng)
+        result = fit(restricted(build_problem(s.kinematics, s.device, data), s.base), Fit())
         z = (result.theta[result.base] - theta_true[result.base]) / result.uncertainty.std
         inside.append(np.abs(z) <= 1.959964)
     coverage = np.mean(np.concatenate(inside))
@@ -94,10 +95,10 @@ def test_robust_loss_lists_gross_errors_and_keeps_the_fit():
     rng = np.random.default_rng(21)
     theta_true = truth(s, rng)
     data = measure(s.kinematics, s.device, s.plans[0], theta_true, rng)
-    clean = fit(build_problem(s.kinematics, s.device, data), Fit())
+    clean = fit(restricted(build_problem(s.kinematics, s.device, data), s.base), Fit())
     bad = rng.choice(len(data), size=len(data) // 20, replace=False)
     data.readings["x"][bad] += 50 * s.device.spec.noise * rng.choice([-1, 1], size=len(bad))
-    problem = build_problem(s.kinematics, s.device, data)
+    problem = restricted(build_problem(s.kinematics, s.device, data), s.base)
     plain = fit(problem, Fit())
     robust = fit(problem, Fit(loss="huber"))
     error = lambda r: np.abs((r.theta - theta_true)[clean.base] / clean.uncertainty.std).max()  # noqa: E731

@@ -97,3 +97,18 @@ def test_no_grid_task_without_the_datas_truth(tmp_path):
     for name in ("spec.yaml", "calibration.csv", "validation.csv"):  # the data without their truth.json
         shutil.copy(ROOT / "examples" / "theodolite" / name, tmp_path / name)
     assert "grid_task" not in run(tmp_path / "spec.yaml", tmp_path / "out").results.evaluation
+
+
+@pytest.mark.parametrize("readings", ["ranges", "points"])
+def test_sonic_fit_on_raw_ranges_or_triangulated_points(tmp_path, readings):
+    """Both ways of fitting the digitizer converge and match the noise model (chi^2 / dof near 1)."""
+    import shutil
+
+    folder = ROOT / "examples" / "puma560_sonic"
+    text = (folder / "spec.yaml").read_text().replace("fit: {method: s_model_features}", f"fit: {{sonic_readings: {readings}}}")
+    (tmp_path / "spec.yaml").write_text(text)
+    shutil.copy(folder / "calibration.csv", tmp_path / "calibration.csv")
+    results = run(tmp_path / "spec.yaml", tmp_path / "out").results
+    assert results.status == "converged"
+    assert 0.5 < results.noise_check.chi2 / results.noise_check.dof < 1.5
+    assert results.residuals.calibration.after.rms < results.residuals.calibration.before.rms / 5

@@ -74,3 +74,16 @@ def test_centre_of_a_noisy_arc(sweeps):
     found = features.joint_features(1, True, arc + rng.normal(scale=sigma, size=arc.shape), angles)
     assert np.linalg.norm(found.centre - centre) < 4 * found.sigma_centre
     assert found.axis @ [0, 0, 1] > 0.999999  # counter-clockwise sweep: axis +z
+
+
+def test_line_of_translation_of_a_prismatic_joint():
+    """(4.44)-(4.47): the line through the mean along the principal axis, pointing with positive travel."""
+    rng = np.random.default_rng(3)
+    direction = np.array([1.0, -2.0, 0.5]) / np.linalg.norm([1.0, -2.0, 0.5])
+    travel = np.linspace(-300, 300, 25)
+    points = np.array([10.0, 20.0, 30.0]) + np.outer(travel, direction) + rng.normal(scale=0.05, size=(25, 3))
+    found, mean = features.line_of_translation(points)
+    assert np.degrees(np.arccos(found @ direction)) < 0.01  # same sense as the travel
+    assert np.linalg.norm(np.cross(mean - [10.0, 20.0, 30.0], direction)) < 0.05
+    reversed_found, _ = features.line_of_translation(points[::-1])
+    assert reversed_found @ direction < 0  # measured in the other order, the joint moves the other way

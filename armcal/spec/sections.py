@@ -137,10 +137,14 @@ Effect = Annotated[
 
 
 class Simulate(SpecModel):
-    """How ``armcal simulate`` builds the true robot and its measurements."""
+    """How ``armcal simulate`` builds the true robot and its measurements.
+
+    The true robot is the nominal chain with six small error freedoms after the
+    base and after every link, and an encoder error per joint (Stone 7.1-7.8
+    generalised): a richer model than any convention that is fitted.
+    """
 
     seed: int = 0
-    truth: Literal["manufacturing_errors", "perturbation"] = "manufacturing_errors"
     sigma_p: Length = Field(0.1, ge=0.0, description="positional manufacturing error sigma (Stone 7.2)")
     sigma_o: Angle = Field(0.01 * DEG, ge=0.0, description="orientational manufacturing error sigma (Stone 7.2)")
     sigma_e: Angle = Field(0.1 * DEG, ge=0.0, description="encoder calibration error sigma (Stone 7.2)")

@@ -20,8 +20,11 @@ UNITS_BY_KIND: dict[str, dict[str, float]] = {
     "length": LENGTH_UNITS,
     "angle": ANGLE_UNITS,
     "scale": {"1": 1.0},
+    "compliance": {"rad/(N m)": 1.0},  # joint deflection per gravity torque
+    "per_degC": {"1/degC": 1.0},  # thermal expansion
+    "per_s": {"1/s": 1.0},  # drift with time
 }
-INTERNAL_UNIT = {"length": "mm", "angle": "rad", "scale": "1"}
+INTERNAL_UNIT = {kind: next(iter(table)) if kind not in ("length", "angle") else {"length": "mm", "angle": "rad"}[kind] for kind, table in UNITS_BY_KIND.items()}
 
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z]+)?\s*$")
 

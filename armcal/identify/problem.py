@@ -18,6 +18,7 @@ import numpy as np
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key
 from armcal.devices.theodolite import BAR_LENGTH, TheodoliteModel
+from armcal.effects.model import EffectSet, extras_matrix
 from armcal.identify.compiled import compiled
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterInfo, ParameterSet
@@ -53,42 +54,47 @@ class Problem:
         return self.residuals.measured + r * self.residuals.sigma
 
 
-def combined_parameters(kinematics: KinematicModel, device: DeviceModel) -> ParameterSet:
-    return ParameterSet(kinematics.parameters.entries + device.parameters.entries)
+def combined_parameters(kinematics: KinematicModel, device: DeviceModel, effects: EffectSet = EffectSet()) -> ParameterSet:
+    """theta's parameters: the robot's, the device's, the effects'."""
+    return ParameterSet(kinematics.parameters.entries + device.parameters.entries + effects.parameters.entries)
 
 
-def _value_and_jacobian(kinematics: KinematicModel, device: DeviceModel, key: Key) -> ca.Function:
-    """(q, p, pd) -> (readings, d readings / d [p; pd]) of one sample of a key."""
-    h = device.measurement_function(kinematics, key)
-    q, p, pd = (ca.SX.sym(n, h.size1_in(i)) for i, n in enumerate(("q", "p", "pd")))
-    y = h(q, p, pd)
-    return ca.Function("hj", [q, p, pd], [y, ca.jacobian(y, ca.vertcat(p, pd))])
+def _value_and_jacobian(kinematics: KinematicModel, device: DeviceModel, effects: EffectSet, key: Key) -> ca.Function:
+    """(q, x, p, pd, pe) -> (readings, d readings / d [p; pd; pe]) of one sample of a key."""
+    h = effects.measurement_function(kinematics, device, key)
+    q, x, p, pd, pe = (ca.SX.sym(n, h.size1_in(i)) for i, n in enumerate(("q", "x", "p", "pd", "pe")))
+    y = h(q, x, p, pd, pe)
+    return ca.Function("hj", [q, x, p, pd, pe], [y, ca.jacobian(y, ca.vertcat(p, pd, pe))])
 
 
-def build_problem(kinematics: KinematicModel, device: DeviceModel, data: Measurements) -> Problem:
-    """Assemble residuals of all samples of ``data`` (already prepared by the device)."""
-    parameters = combined_parameters(kinematics, device)
+def build_problem(
+    kinematics: KinematicModel, device: DeviceModel, data: Measurements, effects: EffectSet = EffectSet()
+) -> Problem:
+    """Assemble residuals of all samples of ``data`` (already prepared by the device), with ``effects``."""
+    parameters = combined_parameters(kinematics, device, effects)
     samples, channels, kinds, keys, sigmas, measured = [], [], [], [], [], []
     key_rows = data.groups()
     if isinstance(device, TheodoliteModel) and device.spec.scale_bar is not None:
         key_rows[BAR_LENGTH] = np.array([-1])
     canonical = sorted(key_rows, key=str)  # one library serves every data set with the same keys
-    identity = f"{kinematics.identity}|{device.identity}|{[str(k) for k in canonical]}"
-    functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, k) for k in canonical], identity)))
+    identity = f"{kinematics.identity}|{device.identity}|{effects.identity}|{[str(k) for k in canonical]}"
+    functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, effects, k) for k in canonical], identity)))
+    n_robot, n_device = len(kinematics.parameters), len(device.parameters)
     theta = ca.MX.sym("theta", len(parameters))
-    p, pd = theta[: len(kinematics.parameters)], theta[len(kinematics.parameters) :]
+    p, pd, pe = theta[:n_robot], theta[n_robot : n_robot + n_device], theta[n_robot + n_device :]
+    extras = extras_matrix(data.extras, len(data), kinematics.dof)
     r_parts, J_parts = [], []
     for key, rows in key_rows.items():
         key_channels = device.channels(key)
         if key == BAR_LENGTH:  # the bar's calibrated length, a pseudo-observation from the spec
             y = np.array([[device.spec.scale_bar.length]])
-            Q = np.zeros((1, kinematics.dof))
+            Q, X = np.zeros((1, kinematics.dof)), np.zeros((1, extras.shape[1]))
         else:
             y = np.stack([data.readings[c.name][rows] for c in key_channels], axis=1)
-            Q = np.nan_to_num(data.q[rows])
+            Q, X = np.nan_to_num(data.q[rows]), extras[rows]
         sigma = device.sigma(key, y)
         count = len(rows)
-        value, jacobian = functions[key].map(count)(ca.DM(Q.T), p, pd)  # (m, N), (m, n_theta N)
+        value, jacobian = functions[key].map(count)(ca.DM(Q.T), ca.DM(X.T), p, pd, pe)  # (m, N), (m, n_theta N)
         for c, channel in enumerate(key_channels):
             ok = np.flatnonzero(~np.isnan(y[:, c]))
             if not len(ok):
@@ -115,7 +121,7 @@ def build_problem(kinematics: KinematicModel, device: DeviceModel, data: Measure
         sigma=np.concatenate(sigmas),
         measured=np.concatenate(measured),
     )
-    return Problem(parameters, len(kinematics.parameters), function, residual)
+    return Problem(parameters, n_robot, function, residual)
 
 
 def with_values(parameters: ParameterSet, values: np.ndarray) -> ParameterSet:

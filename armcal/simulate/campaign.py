@@ -23,7 +23,8 @@ from armcal.devices.theodolite import TheodoliteModel
 from armcal.devices.sound import ROD_NEAR, raw_range, speed_of_sound, vertical
 from armcal.kinematics.compiler import compile_robot
 from armcal.procedures import Plan, plan
-from armcal.simulate import effects as hidden
+from armcal.effects.library import from_spec, needs
+from armcal.effects.model import EffectSet
 from armcal.simulate.truth import TrueRobot
 from armcal.spec import sections as fx
 from armcal.spec.model import Spec
@@ -46,7 +47,7 @@ def simulate_campaign(spec: Spec, spec_dir: Path) -> Campaign:
     kinematics = compile_robot(spec.robot)
     device = device_model(spec)
     robot = TrueRobot.draw(kinematics, settings, truth_rng)
-    pd = _true_device_parameters(device, settings, truth_rng)
+    pd = _true_device_parameters(device, settings, robot.effects, truth_rng)
     sets, dropped, start = [], {}, 0.0
     for name, procedure, rng in (("calibration", spec.procedure, noise_rngs[0]), ("validation", spec.validation, noise_rngs[1])):
         if procedure is None:
@@ -61,16 +62,13 @@ def simulate_campaign(spec: Spec, spec_dir: Path) -> Campaign:
     return Campaign(sets[0], sets[1], truth, dropped)
 
 
-def _true_device_parameters(device: DeviceModel, settings: fx.Simulate, rng: np.random.Generator) -> np.ndarray:
+def _true_device_parameters(device: DeviceModel, settings: fx.Simulate, effects: EffectSet, rng: np.random.Generator) -> np.ndarray:
     """Free instrument parameters off their nominal by sigma_p / sigma_o; pivot offsets added; scale bars true to length."""
     pd = device.parameters.nominal.copy()
     for i, entry in enumerate(device.parameters.entries):
         if entry.free and entry.kind != "scale":
             pd[i] += rng.normal() * (settings.sigma_p if entry.kind == "length" else settings.sigma_o)
-    for effect in settings.effects:
-        if isinstance(effect, fx.PivotOffset):
-            for c in "xyz":
-                pd[device.parameters.index(f"pivot.{effect.pivot}.{c}")] += getattr(effect, c).value
+    pd = np.array(effects.device_parameter_function(device)(pd, effects.values())).ravel()
     if isinstance(device, TheodoliteModel):
         pd = device.with_calibrated_bar(pd)  # the bar is as long as its certificate says
     return pd
@@ -78,7 +76,7 @@ def _true_device_parameters(device: DeviceModel, settings: fx.Simulate, rng: np.
 
 def _extras(settings: fx.Simulate, count: int, start: float, rng: np.random.Generator, n: int) -> dict:
     extras = {"t": start + settings.time_step * np.arange(count)}
-    needed = hidden.needs(settings.effects)
+    needed = needs([from_spec(e) for e in settings.effects])
     if settings.temperature is not None or "temperature" in needed:
         low, high = settings.temperature or (20.0, 25.0)
         extras["temperature"] = np.linspace(low, high, count)
@@ -103,7 +101,7 @@ def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned:
         poses = robot.target_poses(target, planned.q[rows], group_extras) if target else np.repeat(np.eye(4)[None], len(rows), 0)
         values = device.evaluate(key, poses, pd)
         keep[rows] = device.visible(key, poses, pd)
-        values = _instrument_effects(settings.effects, device, key, values)
+        values = np.array(robot.effects.reading_function(device, key).map(len(rows))(values.T, robot.effects.values())).T
         if isinstance(device, SonicModel):
             values, rods = _sonic_physics(spec, settings, device, key, values, poses, pd, rng)
             for name, column in rods.items():
@@ -120,21 +118,6 @@ def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned:
         readings={name: column[keep] for name, column in readings.items() if not name.startswith("rod_")},
         extras={**{name: value[keep] for name, value in extras.items()}, **{n: c[keep] for n, c in readings.items() if n.startswith("rod_")}},
     )
-
-
-def _instrument_effects(effects: list, device: DeviceModel, key, values: np.ndarray) -> np.ndarray:
-    """Scale, bias and bar-length offsets of the true instrument."""
-    names = [c.name for c in device.channels(key)]
-    values = values.copy()
-    for effect in effects:
-        if isinstance(effect, fx.SensorScale):
-            lengths = [i for i, c in enumerate(device.channels(key)) if c.kind == "length"]
-            values[:, lengths] *= 1.0 + effect.scale.value
-        elif isinstance(effect, fx.RangeBias) and f"s_{effect.microphone}" in names:
-            values[:, names.index(f"s_{effect.microphone}")] += effect.bias.value
-        elif isinstance(effect, fx.BallbarLength):
-            values[:, 0] += effect.offset.value
-    return values
 
 
 def _sonic_physics(spec, settings, device: SonicModel, key, distances, poses, pd, rng):

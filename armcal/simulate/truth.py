@@ -11,15 +11,15 @@ sigma_p per coordinate. This model is never the one fitted.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
-from pydantic import TypeAdapter
 
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, rot_x, rot_y, rot_z, trans
-from armcal.simulate import effects as hidden
-from armcal.spec.sections import Effect, Simulate
+from armcal.effects.library import EffectSpec, LumpedMass, from_spec
+from armcal.effects.model import EffectSet, extras_matrix
+from armcal.spec.sections import Simulate
 
 
 def _error_transform(rng: np.random.Generator, sigma_p: float, sigma_o: float) -> np.ndarray:
@@ -33,7 +33,7 @@ class TrueRobot:
     p: np.ndarray  # nominal parameters with the free target positions' errors
     link_errors: np.ndarray  # (n+1, 4, 4): after the base, after each A_i
     encoder_errors: np.ndarray  # (n,) mm / rad
-    effects: tuple  # hidden effects (spec effect models)
+    effects: EffectSet  # hidden effects, at their simulated values
 
     @staticmethod
     def draw(kinematics: KinematicModel, settings: Simulate, rng: np.random.Generator) -> "TrueRobot":
@@ -47,13 +47,12 @@ class TrueRobot:
             target_coordinate = entry.name.split(".")[0] in kinematics.targets and entry.kind == "length"
             if target_coordinate and entry.free:
                 p[i] += settings.sigma_p * rng.normal()
-        return TrueRobot(kinematics, p, link_errors, encoder_errors, tuple(settings.effects))
+        return TrueRobot(kinematics, p, link_errors, encoder_errors, EffectSet(tuple(from_spec(e) for e in settings.effects)))
 
     @staticmethod
     def from_record(kinematics: KinematicModel, record: dict) -> "TrueRobot":
         """The robot described by truth.json (as written by ``describe``)."""
-        context = {"units": {"length": "mm", "angle": "rad"}}
-        effects = tuple(TypeAdapter(Effect).validate_python(e, context=context) for e in record["hidden_effects"])
+        effects = EffectSet(tuple(_effect(e) for e in record["hidden_effects"]))
         p = np.array([record["parameters"][name] for name in kinematics.parameters.names])
         return TrueRobot(kinematics, p, np.array(record["link_errors"]), np.array(record["encoder_errors"]), effects)
 
@@ -68,10 +67,11 @@ class TrueRobot:
     def _poses(self, Q: np.ndarray, extras: dict, link: int, nominal) -> np.ndarray:
         """A frame fixed on ``link``, carried by the true chain: its nominal offset from the link frame kept."""
         Q = np.atleast_2d(Q)
-        nominal_frames = self.kinematics.link_frames_batch(Q, self.p)
-        Q_true = Q + self.encoder_errors + hidden.joint_deviation(list(self.effects), Q, extras, nominal_frames)
+        X = extras_matrix(extras, len(Q), self.kinematics.dof)
+        deviation, factor = self.effects.joint_deviation_function(self.kinematics).map(len(Q))(Q.T, X.T, self.p, self.effects.values())
+        Q_true = Q + self.encoder_errors + np.array(deviation).T
         frames = self.kinematics.link_frames_batch(Q_true, self.p)
-        scale = hidden.length_scale(list(self.effects), extras, len(Q))
+        scale = np.array(factor).ravel()
         true_frames = self._true_frames(frames, scale)
         offset = np.einsum("nij,njk->nik", _inverse_batch(frames[:, link]), nominal(Q_true))
         offset[:, :3, 3] *= scale[:, None]
@@ -93,8 +93,13 @@ class TrueRobot:
             "encoder_errors": self.encoder_errors.tolist(),
             "link_errors": [e.tolist() for e in self.link_errors],
             "parameters": dict(zip(self.kinematics.parameters.names, self.p.tolist())),
-            "hidden_effects": [e.model_dump() for e in self.effects],
+            "hidden_effects": [asdict(e) for e in self.effects.effects],
         }
+
+
+def _effect(record: dict) -> EffectSpec:
+    masses = tuple(LumpedMass(m["link"], m["mass"], tuple(m["centre"])) for m in record.get("masses", ()))
+    return EffectSpec(**{**record, "masses": masses})
 
 
 def _inverse_batch(T: np.ndarray) -> np.ndarray:

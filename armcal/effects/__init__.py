@@ -1,0 +1,1 @@
+"""Non-geometric effects: the vocabulary, and their terms in the measurement model."""

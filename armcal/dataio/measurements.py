@@ -32,6 +32,19 @@ class Measurements:
     def __len__(self) -> int:
         return len(self.keys)
 
+    def subset(self, rows: np.ndarray) -> "Measurements":
+        """The samples at ``rows`` (indices), every column kept."""
+        pick = lambda array: None if array is None else np.asarray(array)[rows]  # noqa: E731
+        return Measurements(
+            keys=tuple(self.keys[i] for i in rows),
+            q=self.q[rows],
+            readings={k: v[rows] for k, v in self.readings.items()},
+            extras={k: v[rows] for k, v in self.extras.items()},
+            rows=pick(self.rows),
+            source=self.source,
+            sample=None if self.sample is None else tuple(self.sample[i] for i in rows),
+        )
+
     def groups(self) -> dict[Key, np.ndarray]:
         """Sample indices of each key, in order of first appearance."""
         out: dict[Key, list[int]] = {}

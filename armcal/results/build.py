@@ -10,12 +10,13 @@ from armcal import __version__
 from armcal.results.model import Results
 from armcal.results.provenance import git_info, utc_now
 from armcal.spec import LoadedSpec
-from armcal.units import from_internal
+from armcal.units import INTERNAL_UNIT, from_internal
 
 
 def spec_unit(kind: str, loaded: LoadedSpec) -> str:
+    """The spec's unit for lengths and angles; the internal unit for other kinds."""
     units = loaded.spec.robot.units
-    return {"length": units.length, "angle": units.angle}.get(kind, "1")
+    return {"length": units.length, "angle": units.angle}.get(kind, INTERNAL_UNIT[kind])
 
 
 def parameter_rows(loaded: LoadedSpec, entries, values: np.ndarray, std: np.ndarray, identified: set[str]) -> list[dict]:

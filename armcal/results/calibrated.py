@@ -13,10 +13,11 @@ import os
 from pathlib import Path
 
 from ruamel.yaml import YAML
-from ruamel.yaml.comments import CommentedMap
+from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
+from armcal.effects.library import from_spec, to_spec_dict
 from armcal.spec.model import Spec
-from armcal.units import from_internal
+from armcal.units import INTERNAL_UNIT, from_internal
 
 SIGNIFICANT = 10
 
@@ -24,6 +25,9 @@ SIGNIFICANT = 10
 def yaml_path(name: str, spec: Spec) -> list:
     """Where a parameter lives in the spec's YAML."""
     head, _, field = name.rpartition(".")
+    declared = [from_spec(e).id for e in spec.effects]
+    if head in declared:
+        return ["effects", declared.index(head), field]
     robot = spec.robot
     if head in ("base", "tool"):
         return ["robot", head, field]
@@ -61,17 +65,28 @@ def _set(root: CommentedMap, path: list, value: float) -> None:
 
 
 def calibrated_yaml(
-    spec_text: str, spec: Spec, identified: dict[str, tuple[float, str]], source: Path, out_dir: Path, note: str
+    spec_text: str,
+    spec: Spec,
+    identified: dict[str, tuple[float, str]],
+    source: Path,
+    out_dir: Path,
+    note: str,
+    added_effects: list = (),
 ) -> str:
-    """The spec text with ``identified`` {name: (internal value, kind)} written in."""
+    """The spec text with ``identified`` {name: (internal value, kind)} written in, and the effects
+    the diagnosis added [(EffectSpec, {field: (internal value, kind)})] appended to ``effects:``."""
     yaml = YAML(typ="rt")
     yaml.preserve_quotes = True
     yaml.width = 4096  # keep flow-style rows on one line as the user wrote them
     root = yaml.load(spec_text)
-    units = {"length": spec.robot.units.length, "angle": spec.robot.units.angle, "scale": "1"}
+    units = {"length": spec.robot.units.length, "angle": spec.robot.units.angle}
+    shown = lambda value, kind: float(f"{from_internal(value, kind, units.get(kind, INTERNAL_UNIT[kind])):.{SIGNIFICANT}g}")  # noqa: E731
     for name, (value, kind) in identified.items():
-        shown = from_internal(value, kind, units[kind])
-        _set(root, yaml_path(name, spec), float(f"{shown:.{SIGNIFICANT}g}"))
+        _set(root, yaml_path(name, spec), shown(value, kind))
+    if added_effects:
+        effects = root.setdefault("effects", CommentedSeq())
+        for effect, values in added_effects:
+            effects.append(to_spec_dict(effect, {field: shown(v, kind) for field, (v, kind) in values.items()}))
     if spec.data is not None and "data" in root:
         for key in ("calibration", "validation"):
             if root["data"].get(key):

@@ -83,7 +83,7 @@ class ImprovementFactor(_Frozen):
 
 class EffectParameter(_Frozen):
     name: str
-    value: float
+    value: float | None
     std: float | None
     unit: str
 
@@ -97,11 +97,14 @@ class EffectResult(_Frozen):
 
 class Candidate(_Frozen):
     effect: str
+    id: str
     joint: int | None
+    order: int | None
     statistic: float
     dof: int
     p_value: float
     distinguishable: bool
+    significant: bool
 
 
 class RMSPair(_Frozen):
@@ -112,6 +115,7 @@ class RMSPair(_Frozen):
 class Round(_Frozen):
     candidates: list[Candidate]
     accepted: EffectResult | None
+    note: str
     rms_before: RMSPair
     rms_after: RMSPair
 

@@ -1,0 +1,1 @@
+"""The residual diagnosis: candidate effects, score tests, the refit loop."""

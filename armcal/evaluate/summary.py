@@ -1,0 +1,130 @@
+"""results.json from the stages' outputs: statistics, identifiability, parameters, diagnosis, evaluation."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armcal.diagnose.loop import Diagnosis
+from armcal.diagnose.stage import Calibration
+from armcal.effects.library import EffectSpec
+from armcal.evaluate.features import evaluation
+from armcal.evaluate.residuals import before_after, improvement, readings_residuals, residual_unit
+from armcal.identify.uncertainty import residual_stats
+from armcal.results.build import build_results, parameter_rows, spec_unit
+from armcal.results.model import Results
+from armcal.spec import LoadedSpec
+from armcal.spec.sections import EFFECT_TYPES
+from armcal.units import from_internal
+
+
+def reported_names(calibration: Calibration) -> set[str]:
+    """Robot and device parameters, and those of the effects in the model (not the candidates left out)."""
+    names = calibration.problem.parameters.names
+    if calibration.diagnosis is None:
+        return set(names)
+    in_model = {p.name for e in calibration.diagnosis.in_model for p in e.parameters()}
+    return {n for n in names if n.split(".")[0] not in EFFECT_TYPES or n in in_model}
+
+
+def summarize(loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray, grid: dict | None) -> Results:
+    spec = loaded.spec
+    device_type = spec.device.type
+    _, unit = residual_unit(device_type)
+    problem, identified = calibration.problem, calibration.identified
+    result = identified.least_squares
+    start = problem.parameters.nominal
+    calibration_pair = before_after(problem, start, identified.theta, device_type)
+    validation_pair = before_after(calibration.validation, start, identified.theta, device_type) if calibration.validation else None
+    names = reported_names(calibration)
+    identified_names = set(result.identifiability.base) if identified.features is None else _changed(problem, identified.theta)
+    entries = [(e, v, s) for e, v, s in zip(problem.parameters.entries, identified.theta, identified.std) if e.name in names]
+    ident = result.identifiability
+    uncertainty = result.uncertainty
+    outliers = raw_rows[problem.residuals.sample[result.outliers]] if len(result.outliers) else []
+    return build_results(
+        loaded,
+        status="converged" if identified.features is not None or result.solver.converged else "not_converged",
+        unit=unit,
+        identifiability={
+            "n_parameters": len(entries),
+            "rank": ident.rank,
+            "free": list(ident.base),
+            "fixed": [{"name": n, "reason": r} for n, r in ident.fixed if n in names],
+            "condition_number": ident.condition_number,
+            "observability_o1": ident.observability_o1,
+            "unidentifiable": list(ident.unidentifiable),
+        },
+        parameters=parameter_rows(loaded, [e for e, _, _ in entries], np.array([v for _, v, _ in entries]), np.array([s for _, _, s in entries]), identified_names),
+        residuals={"calibration": calibration_pair, "validation": validation_pair},
+        improvement_factor={
+            "calibration": improvement(calibration_pair),
+            "validation": improvement(validation_pair) if validation_pair else None,
+        },
+        diagnosis=diagnosis_block(loaded, calibration) if calibration.diagnosis else {"rounds": [], "added_effects": [], "unexplained": bool(uncertainty.scaled)},
+        evaluation={**evaluation(loaded, problem, identified, calibration.validation), **({"grid_task": grid} if grid else {})},
+        solver={
+            "method": identified.method,
+            "iterations": result.solver.iterations,
+            "reason": result.solver.reason if identified.features is None else (
+                f"closed-form feature identification (Stone 4.3); least squares started from it: {result.solver.reason}"
+            ),
+            "loss": spec.fit.loss,
+            "outliers": sorted(int(r) for r in set(np.asarray(outliers).tolist())),
+        },
+        noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled},
+        correlations=[list(c) for c in uncertainty.correlations],
+    )
+
+
+def _changed(problem, theta: np.ndarray) -> set[str]:
+    """Parameters a method moved from their nominal values."""
+    return {e.name for e, v in zip(problem.parameters.entries, theta) if v != e.nominal}
+
+
+def effect_result(loaded: LoadedSpec, effect: EffectSpec, problem, theta: np.ndarray, std: np.ndarray) -> dict:
+    """EFFECT of the contract, values in the spec's units."""
+    parameters = []
+    for p in effect.parameters():
+        i = problem.parameters.index(p.name)
+        unit = spec_unit(p.kind, loaded)
+        shown = lambda v: None if v is None or np.isnan(v) else from_internal(float(v), p.kind, unit)  # noqa: E731
+        parameters.append({"name": p.name, "value": shown(theta[i]), "std": shown(std[i]), "unit": unit})
+    return {"type": effect.type, "joint": effect.joint, "order": effect.order, "parameters": parameters}
+
+
+def diagnosis_block(loaded: LoadedSpec, calibration: Calibration) -> dict:
+    diagnosis: Diagnosis = calibration.diagnosis
+    device_type = loaded.spec.device.type
+    problem, validation = calibration.problem, calibration.validation
+    final_std = calibration.identified.std
+    rms = lambda pr, theta: residual_stats(readings_residuals(pr, theta, device_type))["rms"] if pr else None  # noqa: E731
+    rounds = []
+    for round_ in diagnosis.rounds:
+        rounds.append(
+            {
+                "candidates": [
+                    {
+                        "effect": t.effect.type,
+                        "id": t.effect.id,
+                        "joint": t.effect.joint,
+                        "order": t.effect.order,
+                        "statistic": t.statistic,
+                        "dof": t.dof,
+                        "p_value": t.p_value,
+                        "distinguishable": t.distinguishable,
+                        "significant": t.significant,
+                    }
+                    for t in sorted(round_.tests, key=lambda t: -t.statistic)
+                ],
+                "accepted": effect_result(loaded, round_.accepted, problem, round_.theta_after, final_std) if round_.accepted else None,
+                "note": round_.note,
+                "rms_before": {"calibration": rms(problem, round_.theta_before), "validation": rms(validation, round_.theta_before)},
+                "rms_after": {"calibration": rms(problem, round_.theta_after), "validation": rms(validation, round_.theta_after)},
+            }
+        )
+    theta = calibration.identified.theta
+    return {
+        "rounds": rounds,
+        "added_effects": [effect_result(loaded, e, problem, theta, final_std) for e in diagnosis.added],
+        "unexplained": diagnosis.unexplained,
+    }

@@ -5,6 +5,7 @@ from __future__ import annotations
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel
 from armcal.effects.library import EffectSpec
+from armcal.kinematics.compiler import KinematicModel
 from armcal.spec.sections import Diagnose
 
 
@@ -13,12 +14,14 @@ def _device_free(device: DeviceModel, prefix: str) -> bool:
 
 
 def candidates(
-    dof: int, device: DeviceModel, data: Measurements, in_model: list[EffectSpec], settings: Diagnose
+    kinematics: KinematicModel, device: DeviceModel, data: Measurements, in_model: list[EffectSpec], settings: Diagnose
 ) -> list[EffectSpec]:
     """Candidate effects for ``data``, leaving out those in the model and those the settings exclude."""
     out: list[EffectSpec] = []
-    for joint in range(1, dof + 1):
-        out.append(EffectSpec("encoder_scale", joint=joint))
+    free = {e.name for e in kinematics.parameters.entries if e.free}
+    for joint, name in enumerate(kinematics.joint_names, start=1):
+        if f"{name}.k" not in free:  # six_parameter's free encoder scale is this effect already
+            out.append(EffectSpec("encoder_scale", joint=joint))
         out += [EffectSpec("gear_harmonic", joint=joint, order=h) for h in range(1, settings.harmonic_orders + 1)]
         out.append(EffectSpec("joint_compliance", joint=joint))
         if "dir" in data.extras:

@@ -29,6 +29,9 @@ from armcal.kinematics.params import ParameterSet
 from armcal.spec.sections import Diagnose, Fit
 
 
+RIVAL = 0.95  # a candidate whose statistic is this close to the best's explains the data about as well
+
+
 @dataclass(frozen=True)
 class Round:
     tests: list[Test]
@@ -98,7 +101,7 @@ def run_diagnosis(
     start: np.ndarray | None = None,
 ) -> Diagnosis:
     """Fit, then diagnose round by round (see the module's docstring)."""
-    pool = candidates(kinematics.dof, device, calibration, declared, settings)
+    pool = candidates(kinematics, device, calibration, declared, settings)
     effects = EffectSet(tuple(declared) + tuple(replace(c, free=False) for c in pool))
     context = _Context(kinematics, device, calibration, validation, effects, fit_settings, settings)
     problem = build_problem(kinematics, device, calibration, effects)
@@ -124,7 +127,9 @@ def run_diagnosis(
         if not after < before:
             rounds.append(Round(tests, None, result.theta, result.theta, f"{best.id} did not lower the held-out error"))
             break
-        rounds.append(Round(tests, best, result.theta, trial.theta, f"{best.id} added"))
+        rivals = [t.effect.id for t in significant if t.effect.id != best.id and t.statistic >= RIVAL * max(t.statistic for t in significant)]
+        note = f"{best.id} added" + (f"; {', '.join(rivals)} would explain the data almost as well" if rivals else "")
+        rounds.append(Round(tests, best, result.theta, trial.theta, note))
         problem, result = trial_problem, trial
         added.append(best)
         remaining = [c for c in remaining if c.id != best.id]

@@ -2,9 +2,9 @@
 
 At the fitted parameters the residuals r are orthogonal to the free columns
 J_b. A candidate's columns J_c are projected off them, J_c' = (I - P_b) J_c; a
-column whose projection keeps under 1e-3 of its norm is absorbed by the geometry
+column whose projection keeps under 5 % of its norm is absorbed by the geometry
 ("not distinguishable": the data cannot tell it from a change of the free
-parameters). The statistic S = r' P_c' r / s^2, with P_c' the projector on the
+parameters, at any amplitude the fit would notice). The statistic S = r' P_c' r / s^2, with P_c' the projector on the
 remaining columns and s^2 = r'r / (M - p), follows chi^2 with as many degrees of
 freedom as columns when the effect is absent.
 """
@@ -18,7 +18,7 @@ from scipy.special import chdtrc
 
 from armcal.effects.library import EffectSpec
 
-ABSORBED = 1e-3
+ABSORBED = 0.05
 
 
 @dataclass(frozen=True)

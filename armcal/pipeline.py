@@ -11,10 +11,12 @@ from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
 from armcal.errors import UserError
 from armcal.diagnose.stage import identify_and_diagnose
+from armcal.evaluate.evidence import evidence
 from armcal.evaluate.grid import grid_evaluation
 from armcal.evaluate.summary import summarize
 from armcal.fileio import write_text_atomic
 from armcal.kinematics.compiler import compile_robot
+from armcal.report.plots import write_plots
 from armcal.results.calibrated import calibrated_yaml
 from armcal.results.model import Results
 from armcal.simulate import find_truth
@@ -57,7 +59,8 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False) -> Ou
     truth = find_truth(calibration_path)
     theta = calibrated.identified.theta[: calibrated.problem.n_robot]
     grid = grid_evaluation(kinematics, kinematics.parameters.nominal, theta, TrueRobot.from_record(kinematics, truth), spec.robot.units) if truth else None
-    results = summarize(loaded, calibrated, calibration.rows, grid)
+    found = evidence(loaded, kinematics, calibrated, calibration)
+    results = summarize(loaded, calibrated, calibration.rows, grid, found, write_plots(found, out_dir))
     _write(loaded, results, calibrated, out_dir)
     return Outcome(results, out_dir)
 

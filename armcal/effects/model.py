@@ -166,3 +166,11 @@ class EffectSet:
         pd = ca.SX.sym("pd", len(device.parameters))
         pe = ca.SX.sym("pe", len(self.parameters))
         return ca.Function("pivots", [pd, pe], [self.device_parameters(device, pd, symbols(self.parameters, pe))])
+
+
+def gravity_torque_function(kinematics: KinematicModel) -> ca.Function:
+    """(q, p) -> gravity torque (N m) about every joint from the default lumped masses, for the evidence plots."""
+    q, p = ca.SX.sym("q", kinematics.dof), ca.SX.sym("p", len(kinematics.parameters))
+    frames = kinematics.frames(q, p)
+    torques = [_gravity_torque(frames, j, (), kinematics.dof) for j in range(1, kinematics.dof + 1)]
+    return ca.Function("gravity_torque", [q, p], [ca.vertcat(*torques)])

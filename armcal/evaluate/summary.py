@@ -26,7 +26,9 @@ def reported_names(calibration: Calibration) -> set[str]:
     return {n for n in names if n.split(".")[0] not in EFFECT_TYPES or n in in_model}
 
 
-def summarize(loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray, grid: dict | None) -> Results:
+def summarize(
+    loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray, grid: dict | None, evidence: dict, plots: list[str]
+) -> Results:
     spec = loaded.spec
     device_type = spec.device.type
     _, unit = residual_unit(device_type)
@@ -60,7 +62,11 @@ def summarize(loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray
             "calibration": improvement(calibration_pair),
             "validation": improvement(validation_pair) if validation_pair else None,
         },
-        diagnosis=diagnosis_block(loaded, calibration) if calibration.diagnosis else {"rounds": [], "added_effects": [], "unexplained": bool(uncertainty.scaled)},
+        diagnosis={
+            **(diagnosis_block(loaded, calibration) if calibration.diagnosis else {"rounds": [], "added_effects": [], "unexplained": bool(uncertainty.scaled)}),
+            "evidence": evidence,
+            "plots": plots,
+        },
         evaluation={**evaluation(loaded, problem, identified, calibration.validation), **({"grid_task": grid} if grid else {})},
         solver={
             "method": identified.method,

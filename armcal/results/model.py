@@ -124,6 +124,8 @@ class Diagnosis(_Frozen):
     rounds: list[Round]
     added_effects: list[EffectResult]
     unexplained: bool
+    evidence: dict | None = None
+    plots: list[str] = []
 
 
 class NoiseCheck(_Frozen):

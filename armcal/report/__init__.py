@@ -1,0 +1,1 @@
+"""Reports: residual plots (the certificate comes later)."""

@@ -1,0 +1,108 @@
+"""Residual plots as SVG files, drawn from the evidence block of results.json (no model needed)."""
+
+from __future__ import annotations
+
+import io
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from armcal.fileio import write_text_atomic  # noqa: E402
+
+plt.rcParams.update({"font.size": 8, "svg.fonttype": "none", "figure.dpi": 100})
+SERIES_STYLE = {"before": dict(color="0.6", marker="o", ms=3, lw=1), "after": dict(color="black", marker="o", ms=3, lw=1)}
+
+
+def _save(figure, path: Path) -> Path:
+    buffer = io.StringIO()
+    figure.savefig(buffer, format="svg", bbox_inches="tight")
+    plt.close(figure)
+    write_text_atomic(path, buffer.getvalue())
+    return path
+
+
+def _panels(count: int):
+    columns = min(3, count)
+    rows = math.ceil(count / columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(3.0 * columns, 2.4 * rows), squeeze=False, layout="constrained")
+    for extra in axes.flat[count:]:
+        extra.set_visible(False)
+    return figure, list(axes.flat)
+
+
+def _series(axis, binned: dict) -> None:
+    for name, values in binned.items():
+        if name in ("x", "count", "joint"):
+            continue
+        style = SERIES_STYLE.get(name, dict(lw=2))
+        label = {"before": "before diagnosis", "after": "final"}.get(name, f"{name} (fitted)")
+        axis.plot(binned["x"], values, label=label, **style)
+    axis.axhline(0.0, color="0.8", lw=0.5)
+
+
+def histogram(evidence: dict, path: Path) -> Path:
+    h = evidence["histogram"]
+    figure, axis = plt.subplots(figsize=(4.5, 2.8), layout="constrained")
+    centres = [(a + b) / 2 for a, b in zip(h["edges"][:-1], h["edges"][1:])]
+    width = h["edges"][1] - h["edges"][0]
+    axis.bar(centres, h["counts"], width=width, color="0.75", edgecolor="0.4", label="final residuals")
+    axis.plot(centres, h["expected"], color="black", lw=1.5, label=f"noise model, sigma {h['noise_sigma']:.3g} {evidence['unit']}")
+    axis.set_xlabel(f"residual ({evidence['unit']})")
+    axis.set_ylabel("count")
+    axis.locator_params(axis="x", nbins=7)
+    axis.legend(frameon=False, fontsize=6, loc="upper left")
+    return _save(figure, path)
+
+
+def against(evidence: dict, section: str, path: Path, xlabel: str) -> Path:
+    """Binned residuals against each joint's angle or torque (one panel per joint)."""
+    panels = evidence[section]
+    figure, axes = _panels(len(panels))
+    for axis, binned in zip(axes, panels):
+        _series(axis, binned)
+        axis.set_title(f"joint {binned['joint']}")
+        axis.set_xlabel(xlabel)
+        axis.set_ylabel(f"|residual| ({evidence['unit']})")
+    axes[0].legend(frameon=False, fontsize=6)
+    return _save(figure, path)
+
+
+def over(evidence: dict, name: str, path: Path, xlabel: str) -> Path:
+    figure, axis = plt.subplots(figsize=(4.5, 2.5), layout="constrained")
+    _series(axis, evidence[name])
+    axis.set_xlabel(xlabel)
+    axis.set_ylabel(f"|residual| ({evidence['unit']})")
+    axis.legend(frameon=False, fontsize=6)
+    return _save(figure, path)
+
+
+def per_key(evidence: dict, path: Path) -> Path:
+    keys = evidence["keys"]
+    figure, axis = plt.subplots(figsize=(max(3.0, 0.45 * len(keys) + 1.5), 2.6), layout="constrained")
+    positions = range(len(keys))
+    axis.bar([p - 0.2 for p in positions], [k["rms_before"] for k in keys], width=0.4, color="0.7", label="before diagnosis")
+    axis.bar([p + 0.2 for p in positions], [k["rms_after"] for k in keys], width=0.4, color="0.2", label="final")
+    axis.set_xticks(list(positions), [k["key"] for k in keys], rotation=45, ha="right")
+    axis.set_ylabel(f"RMS ({evidence['unit']})")
+    axis.legend(frameon=False, fontsize=6)
+    return _save(figure, path)
+
+
+def write_plots(evidence: dict, out_dir: Path) -> list[str]:
+    """Every plot the evidence supports; returns the file names written."""
+    angle = evidence["angle_unit"]
+    written = [
+        histogram(evidence, out_dir / "residual_histogram.svg"),
+        against(evidence, "joints", out_dir / "residual_vs_joint.svg", f"joint angle ({angle})"),
+        per_key(evidence, out_dir / "residual_per_key.svg"),
+    ]
+    if evidence["gravity_torque"]:
+        written.append(against(evidence, "gravity_torque", out_dir / "residual_vs_torque.svg", "gravity torque (N m)"))
+    for name, label in (("t", "time (s)"), ("temperature", "temperature (degC)")):
+        if name in evidence:
+            written.append(over(evidence, name, out_dir / f"residual_vs_{name}.svg", label))
+    return [p.name for p in written]

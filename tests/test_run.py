@@ -30,7 +30,7 @@ def test_run_writes_the_contract(tmp_path, name):
     assert set(data["parameters"][0]) == {"name", "unit", "nominal", "value", "std", "free"}
     for stats in (data["residuals"]["calibration"]["before"], data["residuals"]["calibration"]["after"]):
         assert set(stats) == {"n", "rms", "mean", "std", "max_abs"}
-    assert set(data["diagnosis"]) == {"rounds", "added_effects", "unexplained"}
+    assert set(data["diagnosis"]) >= {"rounds", "added_effects", "unexplained"}
     assert data["improvement_factor"]["calibration"] > 5
     calibrated = load_spec(tmp_path / "calibrated.yaml")  # a valid spec, ready to commit
     assert calibrated.spec.robot.serial == data["robot"]["serial"]

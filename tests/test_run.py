@@ -112,3 +112,32 @@ def test_sonic_fit_on_raw_ranges_or_triangulated_points(tmp_path, readings):
     assert results.status == "converged"
     assert 0.5 < results.noise_check.chi2 / results.noise_check.dof < 1.5
     assert results.residuals.calibration.after.rms < results.residuals.calibration.before.rms / 5
+
+
+def test_the_undeclared_effect_example_is_diagnosed_through_run(tmp_path):
+    """examples/hidden_harmonic: the diagnosis adds joint 2's first harmonic, validation RMS reaches the noise."""
+    results = run(ROOT / "examples" / "hidden_harmonic" / "spec.yaml", tmp_path).results
+    diagnosis = results.diagnosis
+    assert [(e.type, e.joint, e.order) for e in diagnosis.added_effects] == [("gear_harmonic", 2, 1)]
+    first = diagnosis.rounds[0]
+    assert first.accepted is not None and first.rms_after.validation < first.rms_before.validation / 2
+    sin = next(p for p in diagnosis.added_effects[0].parameters if p.name.endswith(".sin"))
+    assert abs(sin.value - 0.02) < 3 * sin.std  # simulated: 0.02 deg
+    assert results.residuals.validation.after.rms < 1.15 * 0.025  # tracker noise 0.025 mm
+    calibrated = load_spec(tmp_path / "calibrated.yaml").spec
+    assert [(e.type, e.joint, e.order) for e in calibrated.effects] == [("gear_harmonic", 2, 1)]
+    assert not diagnosis.unexplained
+
+
+def test_evidence_and_plots(tmp_path):
+    results = run(ROOT / "examples" / "hidden_harmonic" / "spec.yaml", tmp_path).results
+    evidence = results.diagnosis.evidence
+    histogram = evidence["histogram"]
+    assert sum(histogram["counts"]) == results.residuals.calibration.after.n
+    assert sum(histogram["expected"]) == pytest.approx(sum(histogram["counts"]), rel=0.01)
+    joint2 = evidence["joints"][1]
+    assert "gear_harmonic.j2.h1" in joint2 and max(joint2["before"]) > 2 * max(joint2["after"])
+    for name in results.diagnosis.plots:
+        text = (tmp_path / name).read_text()
+        assert text.lstrip().startswith("<?xml") and "<svg" in text
+    assert {"residual_histogram.svg", "residual_vs_joint.svg", "residual_vs_torque.svg"} <= set(results.diagnosis.plots)

@@ -22,6 +22,7 @@ from armcal.diagnose.score import Test, holm, score_tests
 from armcal.effects.library import EffectSpec
 from armcal.effects.model import EffectSet
 from armcal.identify.fit import FitResult, fit
+from armcal.identify.heldout import held_out
 from armcal.identify.problem import Problem, build_problem
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.kinematics.compiler import KinematicModel
@@ -66,10 +67,13 @@ def weighted_rms(problem: Problem, theta: np.ndarray) -> float:
 class _Context:
     """What every round needs: the model, the data and the settings."""
 
-    def __init__(self, kinematics, device, calibration, validation, effects, fit_settings, settings):
+    def __init__(self, kinematics, device, calibration, validation, effects, fit_settings, settings, instrument_moved):
         self.kinematics, self.device, self.calibration = kinematics, device, calibration
         self.effects, self.fit_settings, self.settings = effects, fit_settings, settings
-        self.validation = build_problem(kinematics, device, validation, effects) if validation is not None else None
+        self.validation = None
+        if validation is not None:
+            problem = build_problem(kinematics, device, validation, effects)
+            self.validation = held_out(problem, kinematics, validation, instrument_moved)
 
     def held_out_error(self, problem: Problem, theta: np.ndarray, free: set[str]) -> float:
         """Weighted RMS on the validation set, else over k folds each fitted without its own samples."""
@@ -99,11 +103,12 @@ def run_diagnosis(
     fit_settings: Fit,
     settings: Diagnose,
     start: np.ndarray | None = None,
+    instrument_moved: bool = False,
 ) -> Diagnosis:
     """Fit, then diagnose round by round (see the module's docstring)."""
     pool = candidates(kinematics, device, calibration, declared, settings)
     effects = EffectSet(tuple(declared) + tuple(replace(c, free=False) for c in pool))
-    context = _Context(kinematics, device, calibration, validation, effects, fit_settings, settings)
+    context = _Context(kinematics, device, calibration, validation, effects, fit_settings, settings, instrument_moved)
     problem = build_problem(kinematics, device, calibration, effects)
     theta0 = problem.parameters.nominal.copy()
     if start is not None:

@@ -11,6 +11,8 @@ from armcal.effects.library import from_spec
 from armcal.effects.model import EffectSet
 from armcal.identify.methods import Identified, identify_parameters
 from armcal.identify.problem import Problem, build_problem
+from armcal.identify.heldout import held_out
+from armcal.identify.start import starting_values
 from armcal.kinematics.compiler import KinematicModel
 from armcal.spec.model import Spec
 
@@ -28,11 +30,16 @@ def identify_and_diagnose(
 ) -> Calibration:
     declared = [from_spec(e) for e in spec.effects]
     settings = spec.diagnose
-    if settings.enabled and settings.max_rounds > 0 and spec.fit.method == "least_squares":
-        diagnosis = run_diagnosis(kinematics, device, calibration, validation, declared, spec.fit, settings)
-        result = diagnosis.fit
-        return Calibration(diagnosis.problem, diagnosis.validation, Identified(result.theta, result.std, result), diagnosis)
     effects = EffectSet(tuple(declared))
     problem = build_problem(kinematics, device, calibration, effects)
-    validation_problem = build_problem(kinematics, device, validation, effects) if validation is not None else None
-    return Calibration(problem, validation_problem, identify_parameters(spec, problem, raw), None)
+    start = starting_values(problem, kinematics, device, calibration)
+    if settings.enabled and settings.max_rounds > 0 and spec.fit.method == "least_squares":
+        moved = spec.data is not None and spec.data.instrument_moved
+        diagnosis = run_diagnosis(kinematics, device, calibration, validation, declared, spec.fit, settings, start, moved)
+        result = diagnosis.fit
+        return Calibration(diagnosis.problem, diagnosis.validation, Identified(result.theta, result.std, result), diagnosis)
+    validation_problem = None
+    if validation is not None:
+        moved = spec.data is not None and spec.data.instrument_moved
+        validation_problem = held_out(build_problem(kinematics, device, validation, effects), kinematics, validation, moved)
+    return Calibration(problem, validation_problem, identify_parameters(spec, problem, raw, start), None)

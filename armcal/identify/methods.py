@@ -30,10 +30,10 @@ class Identified:
         return "s_model_features" if self.features is not None else "least_squares"
 
 
-def identify_parameters(spec: Spec, problem: Problem, raw: Measurements) -> Identified:
-    """Run ``spec.fit.method`` on a problem built from ``raw`` calibration data."""
+def identify_parameters(spec: Spec, problem: Problem, raw: Measurements, start: np.ndarray | None = None) -> Identified:
+    """Run ``spec.fit.method`` on a problem built from ``raw`` calibration data (least squares from ``start``)."""
     if spec.fit.method == "least_squares":
-        result = fit(problem, spec.fit)
+        result = fit(problem, spec.fit, start=start)
         return Identified(result.theta, result.std, result)
     points = device_model(spec, "points").prepare(raw)
     theta, found = feature_parameters(spec, points, problem.parameters)

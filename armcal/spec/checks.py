@@ -20,7 +20,7 @@ Problem = tuple[Loc, str]
 
 def check_spec(spec: Spec) -> list[Problem]:
     """All cross-reference problems of a spec that validated field by field."""
-    return [*_robot(spec), *_device(spec), *_procedures(spec), *_effects(spec)]
+    return [*_robot(spec), *_device(spec), *_procedures(spec), *_data(spec), *_effects(spec)]
 
 
 def _robot(spec: Spec) -> Iterator[Problem]:
@@ -120,6 +120,12 @@ def _shells(spec: Spec, procedure: Shells, loc: Loc) -> Iterator[Problem]:
             yield (*loc, "pairings", i, "sphere"), f"sphere '{pairing.sphere}' is not in device.spheres"
     if procedure.extension is not None and procedure.extension not in device.extension_rods:
         yield (*loc, "extension"), f"extension rod '{procedure.extension}' is not in device.extension_rods"
+
+
+def _data(spec: Spec) -> Iterator[Problem]:
+    data = spec.data
+    if data is not None and data.instrument_moved and not isinstance(spec.device, Tracker):
+        yield ("data", "instrument_moved"), "re-registering a moved instrument needs a tracker (measured positions)"
 
 
 def _effects(spec: Spec) -> Iterator[Problem]:

@@ -30,6 +30,9 @@ class Data(SpecModel):
 
     calibration: str
     validation: str | None = None
+    instrument_moved: bool = Field(
+        False, description="the tracker was set up anew for the validation data: re-register it there (robot kept)"
+    )
 
 
 class JointEffect(SpecModel):

@@ -1,0 +1,49 @@
+"""Held-out data taken after the instrument was moved: re-register it before every evaluation.
+
+The robot's parameters under test stay as given; only the instrument-to-base
+transform is set to the least-squares rigid registration (Kabsch) of the
+predicted target positions onto the measured ones, so the held-out error still
+judges the robot model alone. (A weighted fit of all readings would trade
+positions for the far more precise orientations whenever the model is poor.)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from armcal.dataio.measurements import Measurements
+from armcal.identify.problem import Problem
+from armcal.identify.start import POSE, rigid_registration
+from armcal.kinematics.compiler import KinematicModel
+from armcal.kinematics.transforms import pose_from_matrix
+
+
+@dataclass(frozen=True)
+class MovedInstrument(Problem):
+    kinematics: KinematicModel | None = None
+    data: Measurements | None = None
+
+    def evaluate(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return Problem.evaluate(self, self.registered(theta))
+
+    def registered(self, theta: np.ndarray) -> np.ndarray:
+        """theta with the instrument-to-base transform fitted to these data."""
+        names = self.parameters.names
+        columns = [names.index(f"robot_base.{f}") for f in POSE]
+        theta = np.array(theta, dtype=float)
+        p = theta[: self.n_robot]
+        predicted, measured = [], []
+        for key, rows in self.data.groups().items():
+            predicted.append(self.kinematics.target_poses(key[0], self.data.q[rows], p)[:, :3, 3])
+            measured.append(np.stack([self.data.readings[c][rows] for c in "xyz"], axis=1))
+        theta[columns] = pose_from_matrix(rigid_registration(np.concatenate(predicted), np.concatenate(measured)))
+        return theta
+
+
+def held_out(problem: Problem, kinematics: KinematicModel, data: Measurements, instrument_moved: bool) -> Problem:
+    """The validation problem, re-registering the instrument when it was moved."""
+    if not instrument_moved:
+        return problem
+    return MovedInstrument(problem.parameters, problem.n_robot, problem.function, problem.residuals, kinematics, data)

@@ -101,6 +101,27 @@ def run(
     raise typer.Exit(outcome.exit_code)
 
 
+@app.command("import-ipa")
+@user_errors
+def import_ipa(
+    spec: SpecArg,
+    source: Annotated[Path, typer.Argument(help="An ipa-robot-accuracy measurements file (';', decimal commas).")],
+    out: Annotated[Path, typer.Option("--out", help="The contract CSV to write.")],
+    target: Annotated[str, typer.Option(help="The robot target the tracker measured.")] = "tmac",
+) -> None:
+    """Convert a public UR10 laser-tracker series into a data file of the spec (its units)."""
+    from armcal.dataio.ipa import read_ipa
+    from armcal.dataio.writer import write_measurements
+    from armcal.spec import load_spec
+
+    loaded = load_spec(spec)
+    if target not in loaded.spec.robot.targets:
+        raise UserError(f"{spec}: the robot has no target '{target}'")
+    measurements = read_ipa(source, target)
+    write_measurements(out, measurements, loaded.spec)
+    typer.echo(f"wrote {out}: {len(measurements)} samples")
+
+
 @app.command()
 def version() -> None:
     """Print armcal's version."""

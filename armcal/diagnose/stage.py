@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel
 from armcal.diagnose.loop import Diagnosis, run_diagnosis
@@ -23,6 +25,7 @@ class Calibration:
     validation: Problem | None
     identified: Identified
     diagnosis: Diagnosis | None  # None when the spec turns it off or uses Stone's feature method
+    start: np.ndarray  # the nominal model, with a free instrument-to-base transform registered: "before"
 
 
 def identify_and_diagnose(
@@ -37,9 +40,11 @@ def identify_and_diagnose(
         moved = spec.data is not None and spec.data.instrument_moved
         diagnosis = run_diagnosis(kinematics, device, calibration, validation, declared, spec.fit, settings, start, moved)
         result = diagnosis.fit
-        return Calibration(diagnosis.problem, diagnosis.validation, Identified(result.theta, result.std, result), diagnosis)
+        padded = diagnosis.problem.parameters.nominal.copy()
+        padded[: len(start)] = start
+        return Calibration(diagnosis.problem, diagnosis.validation, Identified(result.theta, result.std, result), diagnosis, padded)
     validation_problem = None
     if validation is not None:
         moved = spec.data is not None and spec.data.instrument_moved
         validation_problem = held_out(build_problem(kinematics, device, validation, effects), kinematics, validation, moved)
-    return Calibration(problem, validation_problem, identify_parameters(spec, problem, raw, start), None)
+    return Calibration(problem, validation_problem, identify_parameters(spec, problem, raw, start), None, start)

@@ -34,7 +34,7 @@ def summarize(
     _, unit = residual_unit(device_type)
     problem, identified = calibration.problem, calibration.identified
     result = identified.least_squares
-    start = problem.parameters.nominal
+    start = calibration.start
     calibration_pair = before_after(problem, start, identified.theta, device_type)
     validation_pair = before_after(calibration.validation, start, identified.theta, device_type) if calibration.validation else None
     names = reported_names(calibration)

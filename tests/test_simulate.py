@@ -133,3 +133,11 @@ def test_sonic_campaign_has_raw_ranges_and_rods(tmp_path, name):
     assert {"rod_B_1", "rod_B_2", "rod_D_1", "rod_D_2"} <= set(data.extras)
     quantum = data.readings["s_A"] / 0.1  # the mean of 10 readings quantised to 0.01 cm
     assert np.allclose(quantum * 10, np.round(quantum * 10), atol=1e-6)
+
+
+def test_a_procedure_that_plans_no_readable_pose_is_a_clear_error(tmp_path):
+    from armcal.errors import UserError
+
+    loaded = _spec(tmp_path, "goswami_puma560", [("  longitudes: 23", "  longitudes: 4\n  radius: 500")])  # 5 m shells
+    with pytest.raises(UserError, match="the calibration procedure plans no pose the instrument can read"):
+        simulate_campaign(loaded.spec, tmp_path)

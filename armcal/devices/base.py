@@ -91,6 +91,8 @@ class DeviceModel(ABC):
     ) -> np.ndarray:
         """Readings (N, channels) of N samples of one key, one mapped call."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        if len(Q) == 0:
+            return np.zeros((0, len(self.channels(key))))
         p = kinematics.parameter_vector(p)
         pd = self.parameters.nominal if pd is None else np.asarray(pd, dtype=float)
         mapped = self.measurement_function(kinematics, key).map(len(Q))
@@ -100,6 +102,8 @@ class DeviceModel(ABC):
         """Readings (N, channels) for given target poses (N, 4, 4), e.g. of a simulated true robot."""
         pd = self.parameters.nominal if pd is None else np.asarray(pd, dtype=float)
         poses = np.asarray(poses, dtype=float)
+        if len(poses) == 0:
+            return np.zeros((0, len(self.channels(key))))
         side_by_side = poses.transpose(1, 0, 2).reshape(4, 4 * len(poses))
         return np.array(self.geometry(key).map(len(poses))(side_by_side, pd)).T
 

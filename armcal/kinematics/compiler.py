@@ -53,6 +53,8 @@ class KinematicModel:
     def link_frames_batch(self, Q: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
         """Frames F_0 .. F_n (N, n+1, 4, 4) at N configurations, one call."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        if len(Q) == 0:
+            return np.zeros((0, self.dof + 1, 4, 4))
         out = np.array(self.frames.map(len(Q))(Q.T, self.parameter_vector(p)))
         return out.reshape(4, len(Q), self.dof + 1, 4).transpose(1, 2, 0, 3)
 
@@ -64,6 +66,8 @@ class KinematicModel:
 def _batch(function: ca.Function, Q: np.ndarray, p: np.ndarray) -> np.ndarray:
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     n_samples = Q.shape[0]
+    if n_samples == 0:
+        return np.zeros((0, 4, 4))
     out = np.array(function.map(n_samples)(Q.T, p))
     return out.reshape(4, n_samples, 4).transpose(1, 0, 2)
 

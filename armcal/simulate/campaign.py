@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from armcal.dataio.measurements import Measurements
+from armcal.errors import UserError
 from armcal.devices import device_model
 from armcal.devices.base import DeviceModel
 from armcal.devices.sonic import SonicModel
@@ -54,6 +55,9 @@ def simulate_campaign(spec: Spec, spec_dir: Path) -> Campaign:
             sets.append(None)
             continue
         planned = plan(procedure, kinematics, device, spec, spec_dir)
+        if not len(planned):
+            reasons = "; ".join(f"{count} {why}" for why, count in planned.dropped.items()) or "no poses"
+            raise UserError(f"the {name} procedure plans no pose the instrument can read ({reasons})")
         measurements = _measure(spec, settings, robot, device, pd, planned, rng, start)
         start = float(measurements.extras["t"][-1]) + settings.time_step
         sets.append(measurements)

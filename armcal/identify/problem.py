@@ -48,11 +48,6 @@ class Problem:
         r, J = self.function(np.asarray(theta, dtype=float))
         return np.array(r).ravel(), np.array(J)
 
-    def predicted(self, theta: np.ndarray) -> np.ndarray:
-        """Predicted readings (M,) in internal units."""
-        r, _ = self.evaluate(theta)
-        return self.residuals.measured + r * self.residuals.sigma
-
 
 def combined_parameters(kinematics: KinematicModel, device: DeviceModel, effects: EffectSet = EffectSet()) -> ParameterSet:
     """theta's parameters: the robot's, the device's, the effects'."""

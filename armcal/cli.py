@@ -96,9 +96,22 @@ def run(
     from armcal.pipeline import run as run_pipeline
     from armcal.summary import run_summary
 
-    outcome = run_pipeline(spec, out, force)
+    outcome = run_pipeline(spec, out, force, pdf=not no_pdf)
     typer.echo(run_summary(outcome))
     raise typer.Exit(outcome.exit_code)
+
+
+@app.command()
+@user_errors
+def report(
+    results: Annotated[Path, typer.Argument(help="A results.json written by armcal run.", show_default=False)],
+    no_pdf: Annotated[bool, typer.Option("--no-pdf", help="Write only certificate.html.")] = False,
+) -> None:
+    """Render the certificate again from results.json alone (and the plots beside it)."""
+    from armcal.report.render import rerender
+
+    for path in rerender(results, pdf=not no_pdf):
+        typer.echo(f"wrote {path}")
 
 
 @app.command("import-ipa")

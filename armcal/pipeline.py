@@ -17,7 +17,9 @@ from armcal.evaluate.summary import summarize
 from armcal.fileio import write_text_atomic
 from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import write_plots
+from armcal.report.render import write_certificate
 from armcal.results.calibrated import calibrated_yaml
+from armcal.results.campaign import campaign
 from armcal.results.model import Results
 from armcal.simulate import find_truth
 from armcal.simulate.truth import TrueRobot
@@ -41,7 +43,7 @@ def default_out_dir(spec_path: Path) -> Path:
     return spec_path.parent / "out" / spec_path.stem
 
 
-def run(spec_path: Path, out_dir: Path | None = None, force: bool = False) -> Outcome:
+def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: bool = True) -> Outcome:
     loaded = load_spec(spec_path)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(loaded.path)
     _refuse_overwrite(out_dir, force)
@@ -60,8 +62,11 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False) -> Ou
     theta = calibrated.identified.theta[: calibrated.problem.n_robot]
     grid = grid_evaluation(kinematics, kinematics.parameters.nominal, theta, TrueRobot.from_record(kinematics, truth), spec.robot.units) if truth else None
     found = evidence(loaded, kinematics, calibrated, calibration)
-    results = summarize(loaded, calibrated, calibration.rows, grid, found, write_plots(found, out_dir))
+    measured = campaign(loaded, calibration, validation)
+    results = summarize(loaded, calibrated, calibration.rows, grid, found, write_plots(found, out_dir), measured)
     _write(loaded, results, calibrated, out_dir)
+    user_templates = loaded.path.parent / spec.report.template if spec.report.template else None
+    write_certificate(results.model_dump(mode="json"), out_dir, pdf, user_templates)
     return Outcome(results, out_dir)
 
 

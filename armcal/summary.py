@@ -89,5 +89,6 @@ def run_summary(outcome) -> str:
     lines.append(f"  noise check chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g} (p = {r.noise_check.p_value:.3g})")
     if r.identifiability.unidentifiable:
         lines.append(f"  not identifiable from these data: {', '.join(r.identifiability.unidentifiable)}")
-    lines.append(f"  wrote {outcome.out_dir / 'results.json'}, {outcome.out_dir / 'calibrated.yaml'}")
+    written = ["results.json", "calibrated.yaml", "certificate.html"] + (["certificate.pdf"] if (outcome.out_dir / "certificate.pdf").exists() else [])
+    lines.append(f"  wrote {', '.join(written)} in {outcome.out_dir}")
     return "\n".join(lines)

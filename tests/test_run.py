@@ -34,6 +34,28 @@ def test_run_writes_the_contract(tmp_path, name):
     assert data["improvement_factor"]["calibration"] > 5
     calibrated = load_spec(tmp_path / "calibrated.yaml")  # a valid spec, ready to commit
     assert calibrated.spec.robot.serial == data["robot"]["serial"]
+    _check_certificate(tmp_path, data)
+
+
+def _check_certificate(folder, data):
+    """The PDF opens, has 4-12 pages, and shows the serial, the spec's sha256, every identified value, the factors."""
+    from pypdf import PdfReader
+
+    from armcal.report.context import decimals_for, number
+
+    reader = PdfReader(folder / "certificate.pdf")
+    assert 4 <= len(reader.pages) <= 12
+    text = " ".join(page.extract_text() for page in reader.pages)
+    flat = text.replace("\n", " ")
+    assert data["robot"]["serial"] in flat and data["spec"]["sha256"] in flat.replace(" ", "")
+    for p in data["parameters"]:
+        if p["free"]:
+            shown = number(p["value"], decimals_for(2 * p["std"] if p["std"] is not None else None))
+            assert p["name"] in flat and shown in flat, (p["name"], shown)
+    for name in ("calibration", "validation"):
+        factor = data["improvement_factor"][name]
+        if factor is not None:
+            assert number(factor, 1) in flat
 
 
 def test_calibrated_spec_holds_the_identified_values(tmp_path):

@@ -68,7 +68,11 @@ def evidence(loaded, kinematics, calibration, data) -> dict:
         "unit": unit,
         "angle_unit": angle_unit,
         "joints": [{"joint": j + 1, **_binned(q[:, j] / angle, series)} for j in range(kinematics.dof)],
-        "gravity_torque": [{"joint": j + 1, **_binned(torque[:, j], series)} for j in range(kinematics.dof) if np.ptp(torque[:, j]) > 1e-9],
+        "gravity_torque": [
+            {"joint": j + 1, **_binned(torque[:, j], series)}
+            for j in range(kinematics.dof)
+            if np.ptp(torque[:, j]) > 0.01 * np.max(np.ptp(torque, axis=0))  # a vertical axis carries no gravity torque
+        ],
         "keys": _per_key(residuals, chosen, before, after),
         "magnitude": "RMS over each sample's readings",
         "histogram": _histogram(after, sigma if unit != "arcsec" else sigma / ARCSEC),

@@ -27,7 +27,7 @@ def reported_names(calibration: Calibration) -> set[str]:
 
 
 def summarize(
-    loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray, grid: dict | None, evidence: dict, plots: list[str]
+    loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray, grid: dict | None, evidence: dict, plots: list[str], measured: dict
 ) -> Results:
     spec = loaded.spec
     device_type = spec.device.type
@@ -79,6 +79,7 @@ def summarize(
         },
         noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled},
         correlations=[list(c) for c in uncertainty.correlations],
+        campaign=measured,
     )
 
 

@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from armcal import __version__
+from armcal.results.campaign import report_fields
 from armcal.results.model import Results
 from armcal.results.provenance import git_info, utc_now
 from armcal.spec import LoadedSpec
@@ -39,12 +40,14 @@ def parameter_rows(loaded: LoadedSpec, entries, values: np.ndarray, std: np.ndar
 
 def build_results(loaded: LoadedSpec, **stages) -> Results:
     """Results from: status, unit, identifiability, parameters, residuals, improvement_factor,
-    diagnosis, evaluation, solver, noise_check, correlations."""
+    diagnosis, evaluation, solver, noise_check, correlations, campaign."""
     spec = loaded.spec
+    created = utc_now()
     return Results.model_validate(
         {
             "armcal_version": __version__,
-            "created": utc_now(),
+            "created": created,
+            "report": report_fields(loaded, created),
             "spec": {"path": str(loaded.path), "sha256": loaded.sha256, "git": git_info(loaded.path)},
             "robot": {"name": spec.robot.name, "serial": spec.robot.serial, "convention": spec.robot.convention, "dof": spec.robot.dof},
             "device": {"type": spec.device.type, "unit": stages.pop("unit")},

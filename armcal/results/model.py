@@ -143,6 +143,26 @@ class Solver(_Frozen):
     outliers: list[int]  # data file lines of samples the robust loss down-weighted
 
 
+class Campaign(_Frozen):
+    """What was measured, for the certificate."""
+
+    instrument: str
+    details: list[str]  # microphones, pivots and spheres, stations, targets
+    procedure: str
+    validation_procedure: str | None
+    calibration_samples: int
+    validation_samples: int | None
+    temperature: list[float] | None  # min, max in degC when measured
+
+
+class ReportInfo(_Frozen):
+    certificate_number: str
+    customer: str | None
+    operator: str | None
+    location: str | None
+    notes: str | None
+
+
 class Results(_Frozen):
     armcal_version: str
     created: str
@@ -159,3 +179,5 @@ class Results(_Frozen):
     solver: Solver
     noise_check: NoiseCheck
     correlations: list[tuple[str, str, float]]
+    campaign: Campaign
+    report: ReportInfo

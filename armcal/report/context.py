@@ -1,0 +1,176 @@
+"""The certificate's context: plain, already formatted values built from results.json (no logic in templates)."""
+
+from __future__ import annotations
+
+import base64
+import math
+from pathlib import Path
+
+PLOT_TITLES = {
+    "residual_histogram.svg": "Residuals after calibration, with the Gaussian of the noise model",
+    "residual_vs_joint.svg": "Residual magnitude against each joint angle (before and after the diagnosis)",
+    "residual_vs_torque.svg": "Residual magnitude against the gravity torque about each joint",
+    "residual_per_key.svg": "Residual RMS per target, pivot pairing or station",
+    "residual_vs_t.svg": "Residual magnitude against time",
+    "residual_vs_temperature.svg": "Residual magnitude against temperature",
+}
+
+
+WIDE_PLOTS = {"residual_vs_joint.svg", "residual_vs_torque.svg"}  # panels per joint; the others print smaller
+
+
+def number(value: float | None, decimals: int = 4) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    if value != 0 and (abs(value) >= 1e6 or abs(value) < 10 ** -(decimals + 1)):
+        return f"{value:.{max(decimals - 1, 2)}e}"
+    return f"{value:.{decimals}f}"
+
+
+def decimals_for(uncertainty: float | None, default: int = 5) -> int:
+    """Enough decimals to show the expanded uncertainty with two significant digits."""
+    if not uncertainty or not math.isfinite(uncertainty):
+        return default
+    return int(min(8, max(2, 1 - math.floor(math.log10(abs(uncertainty))))))
+
+
+def _stats_rows(results: dict) -> list[dict]:
+    rows = []
+    for name in ("calibration", "validation"):
+        pair = results["residuals"][name]
+        if pair is None:
+            continue
+        factor = results["improvement_factor"][name]
+        for moment in ("before", "after"):
+            s = pair[moment]
+            rows.append(
+                {
+                    "data": f"{name}, {'design model' if moment == 'before' else 'calibrated model'}",
+                    "n": str(s["n"]),
+                    "rms": number(s["rms"]),
+                    "mean": number(s["mean"]),
+                    "std": number(s["std"]),
+                    "max": number(s["max_abs"]),
+                    "factor": number(factor, 1) if moment == "after" else "",
+                }
+            )
+    return rows
+
+
+def _parameter_rows(results: dict) -> list[dict]:
+    rows = []
+    for p in results["parameters"]:
+        expanded = 2 * p["std"] if p["std"] is not None else None
+        decimals = decimals_for(expanded)
+        rows.append(
+            {
+                "name": p["name"],
+                "unit": p["unit"],
+                "nominal": number(p["nominal"], decimals),
+                "value": number(p["value"], decimals),
+                "difference": number(p["value"] - p["nominal"], decimals),
+                "expanded": number(expanded, decimals) if expanded is not None else "",
+                "mark": "" if p["free"] else "fixed",
+            }
+        )
+    return rows
+
+
+def _diagnosis(results: dict) -> dict:
+    diagnosis = results["diagnosis"]
+    unit = results["device"]["unit"]
+    rounds = []
+    for i, r in enumerate(diagnosis["rounds"], start=1):
+        accepted = r["accepted"]
+        parameters = []
+        if accepted:
+            for p in accepted["parameters"]:
+                u = 2 * p["std"] if p["std"] is not None else None
+                parameters.append(f"{p['name']} = {number(p['value'], decimals_for(u))} +- {number(u, decimals_for(u))} {p['unit']} (k=2)")
+        top = [c for c in r["candidates"] if c["distinguishable"]][:3]
+        rounds.append(
+            {
+                "number": str(i),
+                "outcome": r["note"],
+                "parameters": parameters,
+                "strongest": ", ".join(f"{c['id']} (S {c['statistic']:.1f}, p {c['p_value']:.2g})" for c in top) or "none",
+                "not_distinguishable": ", ".join(c["id"] for c in r["candidates"] if not c["distinguishable"]) or "none",
+                "before": f"{number(r['rms_before']['calibration'])} / {number(r['rms_before']['validation'])} {unit}",
+                "after": f"{number(r['rms_after']['calibration'])} / {number(r['rms_after']['validation'])} {unit}",
+            }
+        )
+    return {"rounds": rounds, "unexplained": diagnosis["unexplained"], "added": ", ".join(e["type"] + (f" joint {e['joint']}" if e["joint"] else "") for e in diagnosis["added_effects"]) or "none"}
+
+
+def _grid(results: dict) -> list[dict]:
+    grid = results["evaluation"].get("grid_task") or {}
+    return [
+        {
+            "index": r["index"],
+            "unit": r["unit"],
+            "design": number(r["design"]),
+            "calibrated": number(r["calibrated"]),
+            "factor": number(r["improvement_factor"], 1),
+        }
+        for r in grid.get("indices", [])
+    ]
+
+
+def _plots(results: dict, folder: Path) -> list[dict]:
+    plots = []
+    for name in results["diagnosis"].get("plots", []):
+        path = folder / name
+        if path.exists():
+            data = base64.b64encode(path.read_bytes()).decode("ascii")
+            size = "" if name in WIDE_PLOTS else "small"
+            plots.append({"title": PLOT_TITLES.get(name, name), "source": f"data:image/svg+xml;base64,{data}", "size": size})
+    return plots
+
+
+def certificate_context(results: dict, folder: Path) -> dict:
+    """Every value the template shows, as text; plots from ``folder`` as data URIs."""
+    report, spec, robot, campaign = results["report"], results["spec"], results["robot"], results["campaign"]
+    identifiability = results["identifiability"]
+    noise = results["noise_check"]
+    git = spec["git"]
+    temperature = campaign["temperature"]
+    return {
+        "number": report["certificate_number"],
+        "issued": results["created"][:10],
+        "robot": {"name": robot["name"], "serial": robot["serial"], "convention": robot["convention"], "dof": str(robot["dof"])},
+        "people": [(label, report[key]) for label, key in (("Customer", "customer"), ("Operator", "operator"), ("Location", "location")) if report[key]],
+        "notes": report["notes"] or "",
+        "campaign": {
+            "instrument": campaign["instrument"],
+            "details": "; ".join(campaign["details"]),
+            "procedure": campaign["procedure"],
+            "validation_procedure": campaign["validation_procedure"] or "none",
+            "samples": f"{campaign['calibration_samples']} calibration" + (f", {campaign['validation_samples']} validation" if campaign["validation_samples"] else ""),
+            "temperature": f"{temperature[0]:.2f} - {temperature[1]:.2f} degC" if temperature else "not recorded",
+        },
+        "spec": {
+            "path": spec["path"],
+            "sha256": spec["sha256"],
+            "git": (f"{git['commit']}" + (" (work tree with uncommitted changes)" if git["dirty"] else " (clean)")) if git else "not in a git repository",
+        },
+        "status": results["status"],
+        "solver": f"{results['solver']['method']}, {results['solver']['reason']}, {results['solver']['iterations']} iterations",
+        "identifiability": {
+            "rank": f"{identifiability['rank']} of {identifiability['n_parameters']}",
+            "condition": number(identifiability["condition_number"], 1),
+            "fixed": [(f["name"], f["reason"]) for f in identifiability["fixed"] if f["reason"] != "fixed in the spec"],
+            "spec_fixed": str(sum(1 for f in identifiability["fixed"] if f["reason"] == "fixed in the spec")),
+            "unidentifiable": ", ".join(identifiability["unidentifiable"]) or "none",
+        },
+        "unit": results["device"]["unit"],
+        "parameters": _parameter_rows(results),
+        "statistics": _stats_rows(results),
+        "grid": _grid(results),
+        "diagnosis": _diagnosis(results),
+        "plots": _plots(results, folder),
+        "noise": {
+            "chi2": f"{noise['chi2']:.1f} on {noise['dof']} degrees of freedom (p = {noise['p_value']:.3g})",
+            "scaled": noise["covariance_scaled"],
+        },
+        "version": results["armcal_version"],
+    }

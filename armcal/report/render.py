@@ -1,0 +1,75 @@
+"""Render the certificate: Jinja2 (autoescaped, strict) to HTML, WeasyPrint to PDF with a closed URL fetcher."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+import jinja2
+from weasyprint import HTML
+from weasyprint.urls import URLFetcher
+
+from armcal.errors import UserError
+from armcal.fileio import write_bytes_atomic, write_text_atomic
+from armcal.report.context import certificate_context
+
+PACKAGED = Path(__file__).resolve().parent.parent / "templates"
+TEMPLATE = "certificate.html.j2"
+
+
+def template_folders(user_folder: Path | None) -> list[Path]:
+    """A user's template folder first, then the packaged one."""
+    return ([user_folder] if user_folder else []) + [PACKAGED]
+
+
+class TemplateFetcher(URLFetcher):
+    """Serves data: URIs and files inside the template folders; refuses everything else (no file://, no network)."""
+
+    def __init__(self, folders: list[Path]):
+        super().__init__(allowed_protocols={"data", "file"}, fail_on_errors=False)
+        self.folders = [f.resolve() for f in folders]
+
+    def fetch(self, url, headers=None):
+        if url.startswith("file:"):
+            path = Path(unquote(urlparse(url).path)).resolve()
+            if not any(path.is_relative_to(folder) for folder in self.folders):
+                raise ValueError(f"the certificate may not read {url}")
+        elif not url.startswith("data:"):
+            raise ValueError(f"the certificate may not fetch {url}")
+        return super().fetch(url, headers)
+
+
+def render_html(context: dict, folders: list[Path]) -> str:
+    environment = jinja2.Environment(
+        loader=jinja2.FileSystemLoader([str(f) for f in folders]),
+        autoescape=True,
+        undefined=jinja2.StrictUndefined,
+    )
+    return environment.get_template(TEMPLATE).render(**context)
+
+
+def render_pdf(html: str, folders: list[Path]) -> bytes:
+    base = folders[-1]
+    return HTML(string=html, base_url=str(base) + "/", url_fetcher=TemplateFetcher(folders)).write_pdf()
+
+
+def write_certificate(results: dict, folder: Path, pdf: bool = True, user_templates: Path | None = None) -> list[Path]:
+    """certificate.html (and .pdf) in ``folder``, beside results.json and its plots."""
+    folders = template_folders(user_templates)
+    html = render_html(certificate_context(results, folder), folders)
+    written = [folder / "certificate.html"]
+    write_text_atomic(written[0], html)
+    if pdf:
+        written.append(folder / "certificate.pdf")
+        write_bytes_atomic(written[1], render_pdf(html, folders))
+    return written
+
+
+def rerender(results_path: Path, pdf: bool = True) -> list[Path]:
+    """``armcal report``: the certificate again, from results.json alone (and the plots beside it)."""
+    try:
+        results = json.loads(Path(results_path).read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise UserError(f"{results_path}: cannot read results ({exc})") from None
+    return write_certificate(results, Path(results_path).parent, pdf)

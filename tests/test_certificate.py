@@ -1,0 +1,84 @@
+"""The certificate: golden HTML for a fixed results file, strict rendering, and no reach outside its job."""
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import jinja2
+import pytest
+from conftest import ROOT
+
+from armcal.report.context import certificate_context
+from armcal.report.render import PACKAGED, TemplateFetcher, render_html, write_certificate
+
+GOLDEN = Path(__file__).parent / "data" / "golden"
+
+
+def _results() -> dict:
+    return json.loads((GOLDEN / "results.json").read_text())
+
+
+def test_golden_html(tmp_path):
+    """Set ARMCAL_REFRESH_GOLDEN=1 to accept an intended change of the certificate."""
+    html = render_html(certificate_context(_results(), tmp_path), [PACKAGED])
+    if os.environ.get("ARMCAL_REFRESH_GOLDEN"):
+        (GOLDEN / "certificate.html").write_text(html)
+    assert html == (GOLDEN / "certificate.html").read_text()
+
+
+def test_a_missing_value_fails_the_render(tmp_path):
+    context = certificate_context(_results(), tmp_path)
+    del context["unit"]
+    with pytest.raises(jinja2.UndefinedError):
+        render_html(context, [PACKAGED])
+
+
+def test_injected_markup_prints_as_text_and_reads_no_file(tmp_path, monkeypatch):
+    results = _results()
+    attack = '<img src="file:///etc/passwd">'
+    results["report"]["customer"] = attack
+    results["robot"]["name"] = '<link rel="stylesheet" href="http://example.invalid/x.css">'
+    fetched = []
+    original = TemplateFetcher.fetch
+
+    def spy(self, url, headers=None):
+        fetched.append(url)
+        return original(self, url, headers)
+
+    monkeypatch.setattr(TemplateFetcher, "fetch", spy)
+    write_certificate(results, tmp_path)
+    html = (tmp_path / "certificate.html").read_text()
+    assert attack not in html and "&lt;img src=&#34;file:///etc/passwd&#34;&gt;" in html
+    assert all(url.startswith("file://" + str(PACKAGED)) or url.startswith("data:") for url in fetched), fetched
+    from pypdf import PdfReader
+
+    text = " ".join(p.extract_text() for p in PdfReader(tmp_path / "certificate.pdf").pages)
+    assert "file:///etc/passwd" in text  # printed, as text
+
+
+@pytest.mark.parametrize("url", ["file:///etc/passwd", "http://example.invalid/a.png", "https://example.invalid/", "ftp://x/y"])
+def test_the_fetcher_refuses_anything_outside_the_templates(url):
+    with pytest.raises(ValueError):
+        TemplateFetcher([PACKAGED]).fetch(url)
+
+
+def test_the_fetcher_serves_the_stylesheet():
+    response = TemplateFetcher([PACKAGED]).fetch((PACKAGED / "certificate.css").as_uri())
+    assert response is not None
+
+
+def test_report_rerenders_from_results_alone(tmp_path):
+    import subprocess
+    import sys
+
+    shutil.copy(GOLDEN / "results.json", tmp_path / "results.json")
+    result = subprocess.run([sys.executable, "-m", "armcal", "report", str(tmp_path / "results.json")], capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "certificate.pdf").stat().st_size > 10_000
+
+
+def test_user_templates_are_searched_first(tmp_path):
+    (tmp_path / "certificate.html.j2").write_text("<p>{{ number }} by our lab</p>")
+    html = render_html(certificate_context(_results(), tmp_path), [tmp_path, PACKAGED])
+    assert html == f"<p>{_results()['report']['certificate_number']} by our lab</p>"

@@ -60,7 +60,12 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: 
     calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
     truth = find_truth(calibration_path)
     theta = calibrated.identified.theta[: calibrated.problem.n_robot]
-    grid = grid_evaluation(kinematics, kinematics.parameters.nominal, theta, TrueRobot.from_record(kinematics, truth), spec.robot.units) if truth else None
+    grid = None
+    if truth:
+        true_robot = TrueRobot.from_record(kinematics, truth)
+        free = {e.name for e in calibrated.problem.parameters.entries if e.free}
+        teach = any(name.startswith("robot_base.") for name in free)
+        grid = grid_evaluation(kinematics, kinematics.parameters.nominal, theta, true_robot, spec.robot.units, measured_point(spec), teach)
     found = evidence(loaded, kinematics, calibrated, calibration)
     measured = campaign(loaded, calibration, validation)
     results = summarize(loaded, calibrated, calibration.rows, grid, found, write_plots(found, out_dir), measured)
@@ -68,6 +73,12 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: 
     user_templates = loaded.path.parent / spec.report.template if spec.report.template else None
     write_certificate(results.model_dump(mode="json"), out_dir, pdf, user_templates)
     return Outcome(results, out_dir)
+
+
+def measured_point(spec) -> str | None:
+    """The one robot target a point-measuring instrument saw, if that is all it saw (the grid's tool centre point)."""
+    targets = getattr(spec.device, "targets", None)
+    return targets[0] if targets and len(targets) == 1 and spec.device.type in ("tracker", "theodolite") else None
 
 
 def _sonic_mode(spec, calibration_path: Path) -> str:

@@ -52,13 +52,29 @@ def grid_indices(actual: np.ndarray, desired: np.ndarray) -> dict[str, float]:
     return out
 
 
-def grid_evaluation(kinematics, p_design: np.ndarray, p_calibrated: np.ndarray, truth, units) -> dict:
+def taught(reached: np.ndarray, desired: np.ndarray) -> np.ndarray:
+    """Reached frames seen from a task frame taught by the best rigid fit of the reached vertices (Stone 4.3.5)."""
+    from armcal.identify.start import rigid_registration
+
+    T = rigid_registration(reached[:, :3, 3], desired[:, :3, 3])
+    return np.einsum("ij,njk->nik", T, reached)
+
+
+def grid_evaluation(
+    kinematics, p_design: np.ndarray, p_calibrated: np.ndarray, truth, units, frame: str | None = None, teach: bool = False
+) -> dict:
     """Design-model vs calibrated control on the true robot (Stone 6.6, 7.2.2-7.2.3), in the spec's units.
 
     Design control solves the grid with the design model; calibrated control with
     the identified model, by Newton-Raphson started from the design solution (5.4).
     The true robot then goes to both solutions; each index's improvement factor is
-    |design error| / |calibrated error| (Tables 6-10, 6-11).
+    |design error| / |calibrated error| (Tables 6-10, 6-11). ``frame`` is the tool
+    centre point: the tool, or the one target an instrument measured (the flange
+    itself is then not observed, only that point). ``teach``: when the instrument's
+    transform to the robot base was identified too, the base frame is only known up
+    to a rigid motion, so the task frame is taught (Stone: models describe the
+    internal kinematics; the task frame is taught before the task) by the best rigid
+    fit of the reached vertices, for both controls alike.
     """
     from armcal.kinematics import ik
     from armcal.procedures.tasks import grid_task
@@ -66,13 +82,15 @@ def grid_evaluation(kinematics, p_design: np.ndarray, p_calibrated: np.ndarray, 
 
     desired = grid_task()
     goals = ik.pose_goals(desired)
-    q_design = ik.solve_from_starts(kinematics, goals, p=p_design)
+    q_design = ik.solve_from_starts(kinematics, goals, frame=frame, p=p_design, starts=48)  # 12 goals: afford many starts
     if np.isnan(q_design).any():
         return {"skipped": "the grid of Table 7-1 is not reachable by this robot's design model"}
-    q_calibrated = ik.solve(kinematics, goals, q_design, p=p_calibrated).q
+    q_calibrated = ik.solve(kinematics, goals, q_design, frame=frame, p=p_calibrated).q
     extras = {"t": np.zeros(12), "temperature": np.full(12, 20.0), "dir": np.ones((12, kinematics.dof))}
-    design = grid_indices(truth.tool_poses(q_design, extras), desired)
-    calibrated = grid_indices(truth.tool_poses(q_calibrated, extras), desired)
+    reach = (lambda q: truth.target_poses(frame, q, extras)) if frame else (lambda q: truth.tool_poses(q, extras))
+    seen = (lambda q: taught(reach(q), desired)) if teach else reach
+    design = grid_indices(seen(q_design), desired)
+    calibrated = grid_indices(seen(q_calibrated), desired)
     rows = []
     for name in design:
         kind = "angle" if ("orientation" in name or "perpendicularity" in name) else "length"
@@ -87,4 +105,4 @@ def grid_evaluation(kinematics, p_design: np.ndarray, p_calibrated: np.ndarray, 
                 "improvement_factor": abs(d) / abs(c) if c else float("inf"),
             }
         )
-    return {"indices": rows}
+    return {"tool_centre_point": frame or "tool", "task_frame": "taught by best fit" if teach else "robot base", "indices": rows}

@@ -116,6 +116,33 @@ def _grid(results: dict) -> list[dict]:
     ]
 
 
+def _features(results: dict) -> dict | None:
+    """Stone's feature identification: each joint's features with their accuracy (6.11-6.13), pseudo-DH table."""
+    block = results["evaluation"].get("s_model_features")
+    if not block:
+        return None
+    units = block["units"]
+    residuals = block["residuals"]
+    return {
+        "units": units,
+        "joints": [
+            {
+                "joint": str(j["joint"]),
+                "radius": number(j["radius"], 3),
+                "range": number(j["range_deg"], 1),
+                "plane": number(j["plane_sigma"], 5),
+                "centre": number(j["centre_sigma"], 5),
+            }
+            for j in block["joints"]
+        ],
+        "table": [
+            {k: (number(v, 4) if k != "joint" else str(v)) for k, v in row.items()} for row in block["pseudo_dh"]
+        ],
+        "rms_features": number(residuals["s_model_features"]["rms"]),
+        "rms_least_squares": number(residuals["least_squares"]["rms"]),
+    }
+
+
 def _plots(results: dict, folder: Path) -> list[dict]:
     plots = []
     for name in results["diagnosis"].get("plots", []):
@@ -166,6 +193,9 @@ def certificate_context(results: dict, folder: Path) -> dict:
         "parameters": _parameter_rows(results),
         "statistics": _stats_rows(results),
         "grid": _grid(results),
+        "grid_tcp": (results["evaluation"].get("grid_task") or {}).get("tool_centre_point", ""),
+        "grid_frame": (results["evaluation"].get("grid_task") or {}).get("task_frame", ""),
+        "features": _features(results),
         "diagnosis": _diagnosis(results),
         "plots": _plots(results, folder),
         "noise": {

@@ -47,12 +47,14 @@ def evidence(loaded, kinematics, calibration, data) -> dict:
     start = diagnosis.rounds[0].theta_before if diagnosis and diagnosis.rounds else final
     r_final, _ = problem.evaluate(final)
     r_start, J_start = problem.evaluate(start)
+    r_design, _ = problem.evaluate(calibration.start)
     residuals = problem.residuals
     chosen = (np.array(residuals.kind) == kind) & (residuals.sample >= 0)
     to_unit = (lambda v: v / ARCSEC) if unit == "arcsec" else (lambda v: v)
     sigma = residuals.sigma[chosen]
     after = to_unit(r_final[chosen] * sigma)
     before = to_unit(r_start[chosen] * sigma)
+    design = to_unit(r_design[chosen] * sigma)
     samples, slot = np.unique(residuals.sample[chosen], return_inverse=True)
     magnitude = lambda v: np.sqrt(np.bincount(slot, v**2) / np.bincount(slot))  # noqa: E731
     series = {"before": magnitude(before), "after": magnitude(after)}
@@ -73,17 +75,32 @@ def evidence(loaded, kinematics, calibration, data) -> dict:
             for j in range(kinematics.dof)
             if np.ptp(torque[:, j]) > 0.01 * np.max(np.ptp(torque, axis=0))  # a vertical axis carries no gravity torque
         ],
-        "keys": _per_key(residuals, chosen, before, after),
+        "keys": _per_key(residuals, chosen, design, after),
         "magnitude": "RMS over each sample's readings",
         "histogram": _histogram(after, sigma if unit != "arcsec" else sigma / ARCSEC),
     }
     for name in ("t", "temperature"):
         if name in data.extras:
             block[name] = _binned(data.extras[name][samples], series)
+    if spec.device.type == "ballbar":  # Goswami Fig. 3: residuals along the shells' longitudes
+        block["longitude"] = _binned(_longitudes(kinematics, problem, final, data, samples), series)
     return block
 
 
+def _longitudes(kinematics, problem, theta, data, samples) -> np.ndarray:
+    """Longitude (deg) of each sample's sphere around its pivot, from the calibrated model."""
+    values = problem.parameters.values(theta)
+    out = np.empty(len(samples))
+    for i, sample in enumerate(samples):
+        pivot, sphere, _ = data.keys[sample]
+        position = kinematics.target_poses(sphere, data.q[sample][None], theta[: problem.n_robot])[0, :3, 3]
+        centre = [values[f"pivot.{pivot}.{c}"] for c in "xy"]
+        out[i] = math.degrees(math.atan2(position[1] - centre[1], position[0] - centre[0]))
+    return out
+
+
 def _per_key(residuals, chosen: np.ndarray, before: np.ndarray, after: np.ndarray) -> list[dict]:
+    """RMS per key with the design model (before calibration) and after it."""
     keys = [residuals.key[i] for i in np.flatnonzero(chosen)]
     out = []
     for key in dict.fromkeys(keys):

@@ -10,7 +10,8 @@ PLOT_TITLES = {
     "residual_histogram.svg": "Residuals after calibration, with the Gaussian of the noise model",
     "residual_vs_joint.svg": "Residual magnitude against each joint angle (before and after the diagnosis)",
     "residual_vs_torque.svg": "Residual magnitude against the gravity torque about each joint",
-    "residual_per_key.svg": "Residual RMS per target, pivot pairing or station",
+    "residual_per_key.svg": "Residual RMS per target, pivot pairing or station, design model and calibrated",
+    "residual_vs_longitude.svg": "Residual magnitude along the longitudes of the hemispherical shells (Goswami Fig. 3)",
     "residual_vs_t.svg": "Residual magnitude against time",
     "residual_vs_temperature.svg": "Residual magnitude against temperature",
 }

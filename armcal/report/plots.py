@@ -84,8 +84,8 @@ def per_key(evidence: dict, path: Path) -> Path:
     keys = evidence["keys"]
     figure, axis = plt.subplots(figsize=(max(3.0, 0.45 * len(keys) + 1.5), 2.6), layout="constrained")
     positions = range(len(keys))
-    axis.bar([p - 0.2 for p in positions], [k["rms_before"] for k in keys], width=0.4, color="0.7", label="before diagnosis")
-    axis.bar([p + 0.2 for p in positions], [k["rms_after"] for k in keys], width=0.4, color="0.2", label="final")
+    axis.bar([p - 0.2 for p in positions], [k["rms_before"] for k in keys], width=0.4, color="0.7", label="design model")
+    axis.bar([p + 0.2 for p in positions], [k["rms_after"] for k in keys], width=0.4, color="0.2", label="calibrated")
     axis.set_xticks(list(positions), [k["key"] for k in keys], rotation=45, ha="right")
     axis.set_ylabel(f"RMS ({evidence['unit']})")
     axis.legend(frameon=False, fontsize=6)
@@ -102,7 +102,7 @@ def write_plots(evidence: dict, out_dir: Path) -> list[str]:
     ]
     if evidence["gravity_torque"]:
         written.append(against(evidence, "gravity_torque", out_dir / "residual_vs_torque.svg", "gravity torque (N m)"))
-    for name, label in (("t", "time (s)"), ("temperature", "temperature (degC)")):
+    for name, label in (("t", "time (s)"), ("temperature", "temperature (degC)"), ("longitude", "longitude on the shell (deg)")):
         if name in evidence:
             written.append(over(evidence, name, out_dir / f"residual_vs_{name}.svg", label))
     return [p.name for p in written]

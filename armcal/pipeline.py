@@ -12,7 +12,7 @@ from armcal.devices import device_model
 from armcal.errors import UserError
 from armcal.diagnose.stage import identify_and_diagnose
 from armcal.evaluate.evidence import evidence
-from armcal.evaluate.grid import grid_evaluation
+from armcal.evaluate.grid import grid_evaluation, iso9283_evaluation
 from armcal.evaluate.summary import summarize
 from armcal.fileio import write_text_atomic
 from armcal.kinematics.compiler import compile_robot
@@ -60,15 +60,19 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: 
     calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
     truth = find_truth(calibration_path)
     theta = calibrated.identified.theta[: calibrated.problem.n_robot]
-    grid = None
+    tasks = {}
     if truth:
         true_robot = TrueRobot.from_record(kinematics, truth)
         free = {e.name for e in calibrated.problem.parameters.entries if e.free}
-        teach = any(name.startswith("robot_base.") for name in free)
-        grid = grid_evaluation(kinematics, kinematics.parameters.nominal, theta, true_robot, spec.robot.units, measured_point(spec), teach)
+        setting = (kinematics, kinematics.parameters.nominal, theta, true_robot, spec.robot.units)
+        where = {"frame": measured_point(spec), "teach": any(name.startswith("robot_base.") for name in free)}
+        if "grid_task" in spec.report.tasks:
+            tasks["grid_task"] = grid_evaluation(*setting, **where)
+        if "iso9283" in spec.report.tasks:
+            tasks["iso9283"] = iso9283_evaluation(*setting, spec.report.iso9283_cube, **where)
     found = evidence(loaded, kinematics, calibrated, calibration)
     measured = campaign(loaded, calibration, validation)
-    results = summarize(loaded, calibrated, calibration.rows, grid, found, write_plots(found, out_dir), measured)
+    results = summarize(loaded, calibrated, calibration.rows, tasks, found, write_plots(found, out_dir), measured)
     _write(loaded, results, calibrated, out_dir)
     user_templates = loaded.path.parent / spec.report.template if spec.report.template else None
     write_certificate(results.model_dump(mode="json"), out_dir, pdf, user_templates)

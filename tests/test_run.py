@@ -111,6 +111,12 @@ def test_grid_task_design_versus_calibrated_control(tmp_path):
     for vertex in (1, 4, 5, 8):
         radial = rows[f"vertex {vertex} radial"]
         assert radial["calibrated"] < radial["design"] / 5  # calibrated control lands closer, on the true robot
+    iso = outcome.results.evaluation["iso9283"]["poses"]  # the example's report asks for the ISO cube too
+    assert [r["pose"] for r in iso] == ["P1", "P2", "P3", "P4", "P5"]
+    assert all(r["calibrated"] < r["design"] / 5 for r in iso)
+    from pypdf import PdfReader
+
+    assert "ISO 9283 positional accuracy" in " ".join(p.extract_text() for p in PdfReader(tmp_path / "certificate.pdf").pages)
 
 
 def test_no_grid_task_without_the_datas_truth(tmp_path):

@@ -52,6 +52,34 @@ def grid_indices(actual: np.ndarray, desired: np.ndarray) -> dict[str, float]:
     return out
 
 
+def iso9283_evaluation(kinematics, p_design, p_calibrated, truth, units, cube, frame: str | None = None, teach: bool = False) -> dict:
+    """ISO 9283 positional accuracy AP at the cube's poses P1..P5, design-model vs calibrated control.
+
+    AP is the distance between the commanded and the attained position (one cycle:
+    the simulated robot repeats perfectly); orientation as Rot(y, 180) Rot(z, 90) of 7.2.1.
+    """
+    from armcal.kinematics import ik
+    from armcal.kinematics.transforms import compose, rot_y, rot_z
+    from armcal.procedures.tasks import iso9283_cube
+    from armcal.units import from_internal
+
+    desired = iso9283_cube([cube.x, cube.y, cube.z], cube.side, compose(rot_y(np.pi), rot_z(np.pi / 2))[:3, :3])
+    goals = ik.pose_goals(desired)
+    q_design = ik.solve_from_starts(kinematics, goals, frame=frame, p=p_design, starts=48)
+    if np.isnan(q_design).any():
+        return {"skipped": "the ISO 9283 cube is not reachable by this robot's design model"}
+    q_calibrated = ik.solve(kinematics, goals, q_design, frame=frame, p=p_calibrated).q
+    extras = {"t": np.zeros(5), "temperature": np.full(5, 20.0), "dir": np.ones((5, kinematics.dof))}
+    reach = (lambda q: truth.target_poses(frame, q, extras)) if frame else (lambda q: truth.tool_poses(q, extras))
+    seen = (lambda q: taught(reach(q), desired)) if teach else reach
+    rows = []
+    for k, (d, c) in enumerate(zip(seen(q_design), seen(q_calibrated)), start=1):
+        ap_d, ap_c = (float(np.linalg.norm(x[:3, 3] - desired[k - 1, :3, 3])) for x in (d, c))
+        rows.append({"pose": f"P{k}", "unit": units.length, "design": from_internal(ap_d, "length", units.length),
+                     "calibrated": from_internal(ap_c, "length", units.length), "improvement_factor": ap_d / ap_c if ap_c else float("inf")})
+    return {"tool_centre_point": frame or "tool", "task_frame": "taught by best fit" if teach else "robot base", "poses": rows}
+
+
 def taught(reached: np.ndarray, desired: np.ndarray) -> np.ndarray:
     """Reached frames seen from a task frame taught by the best rigid fit of the reached vertices (Stone 4.3.5)."""
     from armcal.identify.start import rigid_registration

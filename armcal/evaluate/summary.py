@@ -27,7 +27,7 @@ def reported_names(calibration: Calibration) -> set[str]:
 
 
 def summarize(
-    loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray, grid: dict | None, evidence: dict, plots: list[str], measured: dict
+    loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray, tasks: dict, evidence: dict, plots: list[str], measured: dict
 ) -> Results:
     spec = loaded.spec
     device_type = spec.device.type
@@ -67,7 +67,7 @@ def summarize(
             "evidence": evidence,
             "plots": plots,
         },
-        evaluation={**evaluation(loaded, problem, identified, calibration.validation), **({"grid_task": grid} if grid else {})},
+        evaluation={**evaluation(loaded, problem, identified, calibration.validation), **tasks},
         solver={
             "method": identified.method,
             "iterations": result.solver.iterations,

@@ -144,6 +144,14 @@ def _features(results: dict) -> dict | None:
     }
 
 
+def _iso(results: dict) -> dict | None:
+    iso = results["evaluation"].get("iso9283")
+    if not iso or "poses" not in iso:
+        return None
+    rows = [{"pose": r["pose"], "unit": r["unit"], "design": number(r["design"]), "calibrated": number(r["calibrated"]), "factor": number(r["improvement_factor"], 1)} for r in iso["poses"]]
+    return {"rows": rows, "tcp": iso["tool_centre_point"], "frame": iso["task_frame"]}
+
+
 def _plots(results: dict, folder: Path) -> list[dict]:
     plots = []
     for name in results["diagnosis"].get("plots", []):
@@ -197,6 +205,7 @@ def certificate_context(results: dict, folder: Path) -> dict:
         "grid_tcp": (results["evaluation"].get("grid_task") or {}).get("tool_centre_point", ""),
         "grid_frame": (results["evaluation"].get("grid_task") or {}).get("task_frame", ""),
         "features": _features(results),
+        "iso": _iso(results),
         "diagnosis": _diagnosis(results),
         "plots": _plots(results, folder),
         "noise": {

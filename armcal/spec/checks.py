@@ -20,7 +20,7 @@ Problem = tuple[Loc, str]
 
 def check_spec(spec: Spec) -> list[Problem]:
     """All cross-reference problems of a spec that validated field by field."""
-    return [*_robot(spec), *_device(spec), *_procedures(spec), *_data(spec), *_effects(spec)]
+    return [*_robot(spec), *_device(spec), *_procedures(spec), *_data(spec), *_report(spec), *_effects(spec)]
 
 
 def _robot(spec: Spec) -> Iterator[Problem]:
@@ -120,6 +120,11 @@ def _shells(spec: Spec, procedure: Shells, loc: Loc) -> Iterator[Problem]:
             yield (*loc, "pairings", i, "sphere"), f"sphere '{pairing.sphere}' is not in device.spheres"
     if procedure.extension is not None and procedure.extension not in device.extension_rods:
         yield (*loc, "extension"), f"extension rod '{procedure.extension}' is not in device.extension_rods"
+
+
+def _report(spec: Spec) -> Iterator[Problem]:
+    if "iso9283" in spec.report.tasks and spec.report.iso9283_cube is None:
+        yield ("report", "tasks"), "the iso9283 task needs report.iso9283_cube (centre x, y, z and side)"
 
 
 def _data(spec: Spec) -> Iterator[Problem]:

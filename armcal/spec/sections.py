@@ -183,9 +183,20 @@ class Diagnose(SpecModel):
     folds: int = Field(5, ge=2)
 
 
-class Report(SpecModel):
-    """Certificate fields."""
+class IsoCube(SpecModel):
+    """Where the ISO 9283 test cube stands: its centre in the robot base frame and its side."""
 
+    x: Length
+    y: Length
+    z: Length
+    side: Length = Field(gt=0.0)
+
+
+class Report(SpecModel):
+    """Certificate fields, and the evaluation tasks it shows (with simulated data, whose truth is known)."""
+
+    tasks: list[Literal["grid_task", "iso9283"]] = Field(["grid_task"], description="Stone's grid task (7.2.1), the ISO 9283 cube")
+    iso9283_cube: IsoCube | None = None
     certificate_number: str | None = None
     customer: str | None = None
     operator: str | None = None

@@ -10,7 +10,7 @@ import pytest
 from conftest import ROOT
 
 from armcal.report.context import certificate_context
-from armcal.report.render import PACKAGED, TemplateFetcher, render_html, write_certificate
+from armcal.report.render import PACKAGED, TemplateFetcher, certificate_files, render_html, write_files
 
 GOLDEN = Path(__file__).parent / "data" / "golden"
 
@@ -21,14 +21,14 @@ def _results() -> dict:
 
 def test_golden_html(tmp_path):
     """Set ARMCAL_REFRESH_GOLDEN=1 to accept an intended change of the certificate."""
-    html = render_html(certificate_context(_results(), tmp_path), [PACKAGED])
+    html = render_html(certificate_context(_results(), {}), [PACKAGED])
     if os.environ.get("ARMCAL_REFRESH_GOLDEN"):
         (GOLDEN / "certificate.html").write_text(html)
     assert html == (GOLDEN / "certificate.html").read_text()
 
 
 def test_a_missing_value_fails_the_render(tmp_path):
-    context = certificate_context(_results(), tmp_path)
+    context = certificate_context(_results(), {})
     del context["unit"]
     with pytest.raises(jinja2.UndefinedError):
         render_html(context, [PACKAGED])
@@ -47,7 +47,7 @@ def test_injected_markup_prints_as_text_and_reads_no_file(tmp_path, monkeypatch)
         return original(self, url, headers)
 
     monkeypatch.setattr(TemplateFetcher, "fetch", spy)
-    write_certificate(results, tmp_path)
+    write_files(tmp_path, certificate_files(results, {}))
     html = (tmp_path / "certificate.html").read_text()
     assert attack not in html and "&lt;img src=&#34;file:///etc/passwd&#34;&gt;" in html
     assert all(url.startswith("file://" + str(PACKAGED)) or url.startswith("data:") for url in fetched), fetched
@@ -80,5 +80,5 @@ def test_report_rerenders_from_results_alone(tmp_path):
 
 def test_user_templates_are_searched_first(tmp_path):
     (tmp_path / "certificate.html.j2").write_text("<p>{{ number }} by our lab</p>")
-    html = render_html(certificate_context(_results(), tmp_path), [tmp_path, PACKAGED])
+    html = render_html(certificate_context(_results(), {}), [tmp_path, PACKAGED])
     assert html == f"<p>{_results()['report']['certificate_number']} by our lab</p>"

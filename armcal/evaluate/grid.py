@@ -134,3 +134,27 @@ def grid_evaluation(
             }
         )
     return {"tool_centre_point": frame or "tool", "task_frame": "taught by best fit" if teach else "robot base", "indices": rows}
+
+
+def evaluation_tasks(spec, kinematics, calibrated, truth: dict | None) -> dict:
+    """The tasks the spec's report asks for, when the data's truth is known (simulation)."""
+    if truth is None:
+        return {}
+    from armcal.simulate.truth import TrueRobot
+
+    theta = calibrated.identified.theta[: calibrated.problem.n_robot]
+    free = {e.name for e in calibrated.problem.parameters.entries if e.free}
+    setting = (kinematics, kinematics.parameters.nominal, theta, TrueRobot.from_record(kinematics, truth), spec.robot.units)
+    where = {"frame": measured_point(spec), "teach": any(name.startswith("robot_base.") for name in free)}
+    tasks = {}
+    if "grid_task" in spec.report.tasks:
+        tasks["grid_task"] = grid_evaluation(*setting, **where)
+    if "iso9283" in spec.report.tasks:
+        tasks["iso9283"] = iso9283_evaluation(*setting, spec.report.iso9283_cube, **where)
+    return tasks
+
+
+def measured_point(spec) -> str | None:
+    """The one robot target a point-measuring instrument saw, if that is all it saw (the tasks' tool centre point)."""
+    targets = getattr(spec.device, "targets", None)
+    return targets[0] if targets and len(targets) == 1 and spec.device.type in ("tracker", "theodolite") else None

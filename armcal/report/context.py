@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import base64
 import math
-from pathlib import Path
 
 PLOT_TITLES = {
     "residual_histogram.svg": "Residuals after calibration, with the Gaussian of the noise model",
@@ -152,19 +151,18 @@ def _iso(results: dict) -> dict | None:
     return {"rows": rows, "tcp": iso["tool_centre_point"], "frame": iso["task_frame"]}
 
 
-def _plots(results: dict, folder: Path) -> list[dict]:
+def _plots(results: dict, svgs: dict[str, str]) -> list[dict]:
     plots = []
     for name in results["diagnosis"].get("plots", []):
-        path = folder / name
-        if path.exists():
-            data = base64.b64encode(path.read_bytes()).decode("ascii")
+        if name in svgs:
+            data = base64.b64encode(svgs[name].encode("utf-8")).decode("ascii")
             size = "" if name in WIDE_PLOTS else "small"
             plots.append({"title": PLOT_TITLES.get(name, name), "source": f"data:image/svg+xml;base64,{data}", "size": size})
     return plots
 
 
-def certificate_context(results: dict, folder: Path) -> dict:
-    """Every value the template shows, as text; plots from ``folder`` as data URIs."""
+def certificate_context(results: dict, plots: dict[str, str]) -> dict:
+    """Every value the template shows, as text; ``plots`` (name -> SVG) as data URIs."""
     report, spec, robot, campaign = results["report"], results["spec"], results["robot"], results["campaign"]
     identifiability = results["identifiability"]
     noise = results["noise_check"]
@@ -207,7 +205,7 @@ def certificate_context(results: dict, folder: Path) -> dict:
         "features": _features(results),
         "iso": _iso(results),
         "diagnosis": _diagnosis(results),
-        "plots": _plots(results, folder),
+        "plots": _plots(results, plots),
         "noise": {
             "chi2": f"{noise['chi2']:.1f} on {noise['dof']} degrees of freedom (p = {noise['p_value']:.3g})",
             "scaled": noise["covariance_scaled"],

@@ -1,28 +1,24 @@
-"""Residual plots as SVG files, drawn from the evidence block of results.json (no model needed)."""
+"""Residual plots as SVG, drawn from the evidence block of results.json (no model needed)."""
 
 from __future__ import annotations
 
 import io
 import math
-from pathlib import Path
-
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from armcal.fileio import write_text_atomic  # noqa: E402
 
 plt.rcParams.update({"font.size": 8, "svg.fonttype": "none", "figure.dpi": 100})
 SERIES_STYLE = {"before": dict(color="0.6", marker="o", ms=3, lw=1), "after": dict(color="black", marker="o", ms=3, lw=1)}
 
 
-def _save(figure, path: Path) -> Path:
+def _svg(figure) -> str:
     buffer = io.StringIO()
     figure.savefig(buffer, format="svg", bbox_inches="tight")
     plt.close(figure)
-    write_text_atomic(path, buffer.getvalue())
-    return path
+    return buffer.getvalue()
 
 
 def _panels(count: int):
@@ -44,7 +40,7 @@ def _series(axis, binned: dict) -> None:
     axis.axhline(0.0, color="0.8", lw=0.5)
 
 
-def histogram(evidence: dict, path: Path) -> Path:
+def histogram(evidence: dict) -> str:
     h = evidence["histogram"]
     figure, axis = plt.subplots(figsize=(4.5, 2.8), layout="constrained")
     centres = [(a + b) / 2 for a, b in zip(h["edges"][:-1], h["edges"][1:])]
@@ -55,10 +51,10 @@ def histogram(evidence: dict, path: Path) -> Path:
     axis.set_ylabel("count")
     axis.locator_params(axis="x", nbins=7)
     axis.legend(frameon=False, fontsize=6, loc="upper left")
-    return _save(figure, path)
+    return _svg(figure)
 
 
-def against(evidence: dict, section: str, path: Path, xlabel: str) -> Path:
+def against(evidence: dict, section: str, xlabel: str) -> str:
     """Binned residuals against each joint's angle or torque (one panel per joint)."""
     panels = evidence[section]
     figure, axes = _panels(len(panels))
@@ -68,19 +64,19 @@ def against(evidence: dict, section: str, path: Path, xlabel: str) -> Path:
         axis.set_xlabel(xlabel)
         axis.set_ylabel(f"|residual| ({evidence['unit']})")
     axes[0].legend(frameon=False, fontsize=6)
-    return _save(figure, path)
+    return _svg(figure)
 
 
-def over(evidence: dict, name: str, path: Path, xlabel: str) -> Path:
+def over(evidence: dict, name: str, xlabel: str) -> str:
     figure, axis = plt.subplots(figsize=(4.5, 2.5), layout="constrained")
     _series(axis, evidence[name])
     axis.set_xlabel(xlabel)
     axis.set_ylabel(f"|residual| ({evidence['unit']})")
     axis.legend(frameon=False, fontsize=6)
-    return _save(figure, path)
+    return _svg(figure)
 
 
-def per_key(evidence: dict, path: Path) -> Path:
+def per_key(evidence: dict) -> str:
     keys = evidence["keys"]
     figure, axis = plt.subplots(figsize=(max(3.0, 0.45 * len(keys) + 1.5), 2.6), layout="constrained")
     positions = range(len(keys))
@@ -89,20 +85,20 @@ def per_key(evidence: dict, path: Path) -> Path:
     axis.set_xticks(list(positions), [k["key"] for k in keys], rotation=45, ha="right")
     axis.set_ylabel(f"RMS ({evidence['unit']})")
     axis.legend(frameon=False, fontsize=6)
-    return _save(figure, path)
+    return _svg(figure)
 
 
-def write_plots(evidence: dict, out_dir: Path) -> list[str]:
-    """Every plot the evidence supports; returns the file names written."""
+def draw_plots(evidence: dict) -> dict[str, str]:
+    """Every plot the evidence supports: file name -> SVG text."""
     angle = evidence["angle_unit"]
-    written = [
-        histogram(evidence, out_dir / "residual_histogram.svg"),
-        against(evidence, "joints", out_dir / "residual_vs_joint.svg", f"joint angle ({angle})"),
-        per_key(evidence, out_dir / "residual_per_key.svg"),
-    ]
+    plots = {
+        "residual_histogram.svg": histogram(evidence),
+        "residual_vs_joint.svg": against(evidence, "joints", f"joint angle ({angle})"),
+        "residual_per_key.svg": per_key(evidence),
+    }
     if evidence["gravity_torque"]:
-        written.append(against(evidence, "gravity_torque", out_dir / "residual_vs_torque.svg", "gravity torque (N m)"))
+        plots["residual_vs_torque.svg"] = against(evidence, "gravity_torque", "gravity torque (N m)")
     for name, label in (("t", "time (s)"), ("temperature", "temperature (degC)"), ("longitude", "longitude on the shell (deg)")):
         if name in evidence:
-            written.append(over(evidence, name, out_dir / f"residual_vs_{name}.svg", label))
-    return [p.name for p in written]
+            plots[f"residual_vs_{name}.svg"] = over(evidence, name, label)
+    return plots

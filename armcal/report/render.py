@@ -11,7 +11,7 @@ from weasyprint import HTML
 from weasyprint.urls import URLFetcher
 
 from armcal.errors import UserError
-from armcal.fileio import write_bytes_atomic, write_text_atomic
+from armcal.fileio import write_bytes_atomic
 from armcal.report.context import certificate_context
 
 PACKAGED = Path(__file__).resolve().parent.parent / "templates"
@@ -54,22 +54,32 @@ def render_pdf(html: str, folders: list[Path]) -> bytes:
     return HTML(string=html, base_url=str(base) + "/", url_fetcher=TemplateFetcher(folders)).write_pdf()
 
 
-def write_certificate(results: dict, folder: Path, pdf: bool = True, user_templates: Path | None = None) -> list[Path]:
-    """certificate.html (and .pdf) in ``folder``, beside results.json and its plots."""
+def certificate_files(results: dict, plots: dict[str, str], pdf: bool = True, user_templates: Path | None = None) -> dict[str, bytes]:
+    """certificate.html (and .pdf), rendered in memory."""
     folders = template_folders(user_templates)
-    html = render_html(certificate_context(results, folder), folders)
-    written = [folder / "certificate.html"]
-    write_text_atomic(written[0], html)
+    html = render_html(certificate_context(results, plots), folders)
+    files = {"certificate.html": html.encode("utf-8")}
     if pdf:
-        written.append(folder / "certificate.pdf")
-        write_bytes_atomic(written[1], render_pdf(html, folders))
+        files["certificate.pdf"] = render_pdf(html, folders)
+    return files
+
+
+def write_files(folder: Path, files: dict[str, bytes | str]) -> list[Path]:
+    """Each file written whole (after everything was rendered: a failure leaves the old set intact)."""
+    written = []
+    for name, content in files.items():
+        path = Path(folder) / name
+        write_bytes_atomic(path, content.encode("utf-8") if isinstance(content, str) else content)
+        written.append(path)
     return written
 
 
 def rerender(results_path: Path, pdf: bool = True) -> list[Path]:
     """``armcal report``: the certificate again, from results.json alone (and the plots beside it)."""
+    folder = Path(results_path).parent
     try:
         results = json.loads(Path(results_path).read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise UserError(f"{results_path}: cannot read results ({exc})") from None
-    return write_certificate(results, Path(results_path).parent, pdf)
+    plots = {name: (folder / name).read_text() for name in results["diagnosis"].get("plots", []) if (folder / name).exists()}
+    return write_files(folder, certificate_files(results, plots, pdf))

@@ -15,6 +15,7 @@ from pathlib import Path
 from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
+from armcal import __version__
 from armcal.effects.library import from_spec, to_spec_dict
 from armcal.spec.model import Spec
 from armcal.units import INTERNAL_UNIT, from_internal
@@ -96,3 +97,19 @@ def calibrated_yaml(
     out = io.StringIO()
     yaml.dump(root, out)
     return out.getvalue()
+
+
+def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
+    """calibrated.yaml of a run: identified values written in, added effects appended."""
+    problem, theta = calibrated.problem, calibrated.identified.theta
+    kinds = {e.name: e.kind for e in problem.parameters.entries}
+    added = calibrated.diagnosis.added if calibrated.diagnosis else []
+    added_names = {p.name for e in added for p in e.parameters()}
+    values = {r.name for r in results.parameters if r.free and r.name not in added_names}
+    identified = {name: (float(theta[problem.parameters.index(name)]), kinds[name]) for name in values}
+    new_effects = [(e, {p.name.rsplit(".", 1)[1]: (float(theta[problem.parameters.index(p.name)]), p.kind) for p in e.parameters()}) for e in added]
+    note = (
+        f"Calibrated by armcal {__version__} on {results.created} from {loaded.path.name} "
+        f"(sha256 {loaded.sha256[:12]}), status {results.status}."
+    )
+    return calibrated_yaml(loaded.text, loaded.spec, identified, loaded.path, out_dir, note, new_effects)

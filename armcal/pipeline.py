@@ -8,7 +8,7 @@ from pathlib import Path
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
-from armcal.errors import UserError
+from armcal.errors import Issue, SpecError, UserError
 from armcal.diagnose.stage import identify_and_diagnose
 from armcal.evaluate.evidence import evidence
 from armcal.evaluate.grid import evaluation_tasks
@@ -53,6 +53,8 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: 
     raw = read_measurements(calibration_path, spec)
     calibration = device.prepare(raw)
     validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
+    for data in filter(None, (calibration, validation)):
+        check_readable(device, data)
     calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
     tasks = evaluation_tasks(spec, kinematics, calibrated, find_truth(calibration_path))
     found = evidence(loaded, kinematics, calibrated, calibration)
@@ -67,6 +69,13 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: 
     }
     write_files(out_dir, files)  # only now: a failure above leaves the previous artifacts as they were
     return Outcome(results, out_dir)
+
+
+def check_readable(device, data) -> None:
+    """Readings the instrument could not have produced are a user error, named by file, line and column."""
+    problems = device.unreadable(data)
+    if problems:
+        raise SpecError([Issue(data.source, line, None, column, message) for line, column, message in problems[:20]])
 
 
 def _sonic_mode(spec, calibration_path: Path) -> str:

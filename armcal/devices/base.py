@@ -69,6 +69,19 @@ class DeviceModel(ABC):
         """Which samples the instrument can read at all (N,) - every one unless it says otherwise."""
         return np.ones(len(readings), dtype=bool)
 
+    def unreadable(self, measurements) -> list[tuple[int, str, str]]:
+        """(data line, column, message) of readings this instrument cannot produce (outside its range)."""
+        out = []
+        for key, rows in measurements.groups().items():
+            if self.target(key) is None:
+                continue
+            channels = self.channels(key)
+            readings = np.stack([measurements.readings[c.name][rows] for c in channels], axis=1)
+            for row in rows[~self.measurable(key, readings)]:
+                line = int(measurements.rows[row]) if measurements.rows is not None else int(row) + 2
+                out.append((line, channels[0].name, "reading outside the instrument's range (travel or range limits)"))
+        return out
+
     def prepare(self, measurements):
         """Readings as the model predicts them (e.g. raw ranges compensated); unchanged by default."""
         return measurements

@@ -10,6 +10,7 @@ from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel
 from armcal.diagnose.loop import Diagnosis, run_diagnosis
 from armcal.effects.library import from_spec
+from armcal.errors import UserError
 from armcal.effects.model import EffectSet
 from armcal.identify.methods import Identified, identify_parameters
 from armcal.identify.problem import Problem, build_problem
@@ -35,6 +36,12 @@ def identify_and_diagnose(
     settings = spec.diagnose
     effects = EffectSet(tuple(declared))
     problem = build_problem(kinematics, device, calibration, effects)
+    free = int(problem.parameters.free.sum())
+    if len(problem.residuals.sample) <= free:
+        raise UserError(
+            f"{calibration.source}: {len(problem.residuals.sample)} readings cannot determine {free} free parameters; "
+            "measure more poses or fix parameters in the spec"
+        )
     start = starting_values(problem, kinematics, device, calibration)
     if settings.enabled and settings.max_rounds > 0 and spec.fit.method == "least_squares":
         moved = spec.data is not None and spec.data.instrument_moved

@@ -33,6 +33,24 @@ def check_applicable(spec: Spec) -> None:
         raise UserError(f"fit.method s_model_features needs measured target positions, not a {spec.device.type}")
 
 
+MIN_SWEEP_DEG = 180.0  # Stone's assumption B-3 for the repeated least-squares features
+
+
+def _check_sweep(source, joint: int, xyz: np.ndarray, q: np.ndarray, kind: str) -> None:
+    """Stone's assumptions: enough points (a circle needs 3), a revolute sweep of 180 deg or more (B-3),
+    points that span a plane (not collinear)."""
+    where = f"{source}: joint {joint}"
+    if len(xyz) < 3:
+        raise UserError(f"{where} has {len(xyz)} measured positions; a circle or line needs at least 3")
+    if kind == "revolute":
+        span = float(np.degrees(np.ptp(q)))
+        if span < MIN_SWEEP_DEG:
+            raise UserError(f"{where} sweeps {span:.1f} deg; Stone's feature method needs at least {MIN_SWEEP_DEG:.0f} (assumption B-3)")
+        spread = np.linalg.svd(xyz - xyz.mean(axis=0), compute_uv=False)
+        if spread[1] < 1e-6 * spread[0]:
+            raise UserError(f"{where}: the target's positions are collinear, no plane of rotation is defined (B-1)")
+
+
 def feature_parameters(spec: Spec, points: Measurements, parameters: ParameterSet) -> tuple[np.ndarray, FeatureIdentification]:
     """The problem's parameter vector from Stone's features of position ``points`` (instrument frame)."""
     check_applicable(spec)
@@ -43,6 +61,8 @@ def feature_parameters(spec: Spec, points: Measurements, parameters: ParameterSe
         rows = np.array([key == (target,) for key in points.keys])
         xyz = np.stack([points.readings[c][rows] for c in "xyz"], axis=1)
         sweeps.append((xyz, points.q[rows, i]))
+    for i, (xyz, q) in enumerate(sweeps, start=1):
+        _check_sweep(points.source, i, xyz, q, robot.joints[i - 1].type)
     reference = [DHRow(j.theta.value, j.d.value, j.a.value, j.alpha.value) for j in robot.joints]
     joint_types = tuple(j.type for j in robot.joints)
     found = identify(sweeps, joint_types, np.asarray(procedure.signature), reference)

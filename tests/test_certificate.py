@@ -82,3 +82,12 @@ def test_user_templates_are_searched_first(tmp_path):
     (tmp_path / "certificate.html.j2").write_text("<p>{{ number }} by our lab</p>")
     html = render_html(certificate_context(_results(), {}), [tmp_path, PACKAGED])
     assert html == f"<p>{_results()['report']['certificate_number']} by our lab</p>"
+
+
+def test_user_templates_are_sandboxed(tmp_path):
+    """A template cannot climb to Python internals (e.g. to run commands)."""
+    from jinja2.exceptions import SecurityError
+
+    (tmp_path / "certificate.html.j2").write_text("{{ number.__class__.__mro__[1].__subclasses__() }}")
+    with pytest.raises(SecurityError):
+        render_html(certificate_context(_results(), {}), [tmp_path, PACKAGED])

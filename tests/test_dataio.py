@@ -90,3 +90,8 @@ def test_cli_simulate_writes_and_reports(tmp_path):
     assert (tmp_path / "calibration.csv").exists() and (tmp_path / "validation.csv").exists()
     assert (tmp_path / "truth.json").exists()
     assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_decimal_commas_are_recognised_in_a_comma_file(tmp_path, spec):
+    [(line, _, _, message)] = _problems(tmp_path, spec, HEADER + "1,reflector,10,-45,90,0,20,0,250,5,10,25,80,125\n")
+    assert line == 2 and "decimal commas?" in message

@@ -6,6 +6,7 @@ import csv
 import difflib
 import io
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ from armcal.spec.model import Spec
 from armcal.units import factor
 
 MAX_ISSUES = 20
+DECIMAL_COMMA = re.compile(r"\d,\d")
 
 
 class _Problems:
@@ -101,7 +103,8 @@ def _parse(path: Path, spec: Spec, cols: Layout, header: list[str], rows: list[l
     for r, row in enumerate(rows):
         line = r + 2
         if len(row) != len(header):
-            problems.add(line, None, "", f"{len(row)} fields, but the header has {len(header)}")
+            hint = " (decimal commas? armcal reads '.' as the decimal mark)" if len(row) > len(header) and DECIMAL_COMMA.search(",".join(row)) else ""
+            problems.add(line, None, "", f"{len(row)} fields, but the header has {len(header)}{hint}")
             continue
         on_robot = "target" not in index or row[index["target"]].strip() not in BAR_ENDS
         for column, kind in cols.known.items():

@@ -7,6 +7,7 @@ from pathlib import Path
 from urllib.parse import unquote, urlparse
 
 import jinja2
+from jinja2.sandbox import SandboxedEnvironment
 from weasyprint import HTML
 from weasyprint.urls import URLFetcher
 
@@ -41,7 +42,7 @@ class TemplateFetcher(URLFetcher):
 
 
 def render_html(context: dict, folders: list[Path]) -> str:
-    environment = jinja2.Environment(
+    environment = SandboxedEnvironment(  # a user's template cannot reach Python internals
         loader=jinja2.FileSystemLoader([str(f) for f in folders]),
         autoescape=True,
         undefined=jinja2.StrictUndefined,

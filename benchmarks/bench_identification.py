@@ -16,11 +16,12 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-from scipy.optimize import least_squares
-
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+
+import armcal  # noqa: E402, F401  (first: its single-threaded BLAS setting then holds for both sides)
+import numpy as np  # noqa: E402
+from scipy.optimize import least_squares  # noqa: E402
 
 from armcal.dataio.reader import read_measurements  # noqa: E402
 from armcal.devices import device_model  # noqa: E402
@@ -29,7 +30,7 @@ from armcal.identify.problem import build_problem  # noqa: E402
 from armcal.kinematics.compiler import compile_robot  # noqa: E402
 from armcal.spec import load_spec  # noqa: E402
 
-REPEATS = 5
+REPEATS = 15
 
 
 def _rz(a):

@@ -11,6 +11,7 @@ automatic differentiation of the measurement function (never finite differences)
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import casadi as ca
 import numpy as np
@@ -45,8 +46,45 @@ class Problem:
 
     def evaluate(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Weighted residuals (M,) and their Jacobian (M, len(theta))."""
-        r, J = self.function(np.asarray(theta, dtype=float))
-        return np.array(r).ravel(), np.array(J)
+        r, J = self._call(theta)
+        return r.ravel(), J
+
+    @cached_property
+    def _call(self) -> "BufferedCall":
+        return BufferedCall(self.function)
+
+
+class BufferedCall:
+    """Evaluates a one-input CasADi Function through its FunctionBuffer: numpy in, numpy out.
+
+    Converting the outputs from CasADi matrices costs more than evaluating them;
+    the buffer writes each output's nonzeros straight into numpy memory, which
+    are then scattered into dense arrays (fresh ones on every call).
+    """
+
+    def __init__(self, function: ca.Function):
+        self._input = np.zeros(function.nnz_in(0))
+        self._nonzeros, self._shapes, self._positions = [], [], []
+        self._buffer, self._run = function.buffer()
+        self._buffer.set_arg(0, memoryview(self._input))
+        for i in range(function.n_out()):
+            sparsity = function.sparsity_out(i)
+            shape = (sparsity.size1(), sparsity.size2())
+            rows, columns = sparsity.get_triplet()
+            self._nonzeros.append(np.zeros(sparsity.nnz()))
+            self._shapes.append(shape)
+            self._positions.append(np.ravel_multi_index((np.array(rows, dtype=int), np.array(columns, dtype=int)), shape))
+            self._buffer.set_res(i, memoryview(self._nonzeros[i]))
+
+    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, ...]:
+        self._input[:] = np.asarray(x, dtype=float).ravel()
+        self._run()
+        outputs = []
+        for nonzeros, shape, positions in zip(self._nonzeros, self._shapes, self._positions):
+            dense = np.zeros(shape)
+            dense.flat[positions] = nonzeros
+            outputs.append(dense)
+        return tuple(outputs)
 
 
 def combined_parameters(kinematics: KinematicModel, device: DeviceModel, effects: EffectSet = EffectSet()) -> ParameterSet:

@@ -24,7 +24,8 @@ def _svg(figure) -> str:
 def _panels(count: int):
     columns = min(3, count)
     rows = math.ceil(count / columns)
-    figure, axes = plt.subplots(rows, columns, figsize=(3.0 * columns, 2.4 * rows), squeeze=False, layout="constrained")
+    figure, axes = plt.subplots(rows, columns, figsize=(3.0 * columns, 2.4 * rows), squeeze=False)
+    figure.subplots_adjust(hspace=0.75, wspace=0.45)  # room for titles and labels; savefig trims the margins
     for extra in axes.flat[count:]:
         extra.set_visible(False)
     return figure, list(axes.flat)
@@ -42,7 +43,7 @@ def _series(axis, binned: dict) -> None:
 
 def histogram(evidence: dict) -> str:
     h = evidence["histogram"]
-    figure, axis = plt.subplots(figsize=(4.5, 2.8), layout="constrained")
+    figure, axis = plt.subplots(figsize=(4.5, 2.8))
     centres = [(a + b) / 2 for a, b in zip(h["edges"][:-1], h["edges"][1:])]
     width = h["edges"][1] - h["edges"][0]
     axis.bar(centres, h["counts"], width=width, color="0.75", edgecolor="0.4", label="final residuals")
@@ -68,7 +69,7 @@ def against(evidence: dict, section: str, xlabel: str) -> str:
 
 
 def over(evidence: dict, name: str, xlabel: str) -> str:
-    figure, axis = plt.subplots(figsize=(4.5, 2.5), layout="constrained")
+    figure, axis = plt.subplots(figsize=(4.5, 2.5))
     _series(axis, evidence[name])
     axis.set_xlabel(xlabel)
     axis.set_ylabel(f"|residual| ({evidence['unit']})")
@@ -78,7 +79,7 @@ def over(evidence: dict, name: str, xlabel: str) -> str:
 
 def per_key(evidence: dict) -> str:
     keys = evidence["keys"]
-    figure, axis = plt.subplots(figsize=(max(3.0, 0.45 * len(keys) + 1.5), 2.6), layout="constrained")
+    figure, axis = plt.subplots(figsize=(max(3.0, 0.45 * len(keys) + 1.5), 2.6))
     positions = range(len(keys))
     axis.bar([p - 0.2 for p in positions], [k["rms_before"] for k in keys], width=0.4, color="0.7", label="design model")
     axis.bar([p + 0.2 for p in positions], [k["rms_after"] for k in keys], width=0.4, color="0.2", label="calibrated")

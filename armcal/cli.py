@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from contextlib import contextmanager
 from functools import wraps
 from pathlib import Path
 from typing import Annotated
@@ -112,6 +113,67 @@ def report(
 
     for path in rerender(results, pdf=not no_pdf):
         typer.echo(f"wrote {path}")
+
+
+WorkersOption = Annotated[int | None, typer.Option("--workers", help="Local worker processes (default: one per core).", min=1)]
+SchedulerOption = Annotated[
+    str | None, typer.Option("--scheduler", help="Run on a Dask distributed cluster: its scheduler's address, e.g. tcp://10.0.0.5:8786.")
+]
+
+
+@app.command()
+@user_errors
+def montecarlo(
+    spec: SpecArg,
+    runs: Annotated[int, typer.Option("--runs", help="Simulated robots per point (Stone used 500).", min=2)] = 500,
+    sweep: Annotated[
+        list[str] | None,
+        typer.Option("--sweep", help="Vary one input: noise_factor=1,2,5,10 | points_per_joint=20,40,60,80,100 | target_radius=30,40,50 | sigma_e=0.1,0.3,0.5 (spec units)."),
+    ] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of robot 0..N-1 (default: the spec's simulate.seed).")] = None,
+    out: Annotated[Path | None, typer.Option("--out", help="Output folder (default: out/<spec stem>/montecarlo/ beside the spec).")] = None,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
+) -> None:
+    """Stone's Monte-Carlo study: N simulated robots identified, then design-model vs calibrated control on the grid task."""
+    from armcal.montecarlo import montecarlo as run_study
+    from armcal.summary import study_summary
+
+    with _progress_bar("robots") as show:
+        study = run_study(spec, runs, sweep or [], seed, out, workers, scheduler, show)
+    typer.echo(study_summary(study))
+
+
+@contextmanager
+def _progress_bar(what: str):
+    """A progress bar on stderr (rich); yields show(done, total)."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    columns = (TextColumn(what), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn())
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(what, total=None)
+        yield lambda done, total: bar.update(task, completed=done, total=total)
+
+
+@app.command()
+@user_errors
+def batch(
+    specs: Annotated[list[Path], typer.Argument(help="Calibration specs (YAML), one robot each.", show_default=False)],
+    out: Annotated[Path | None, typer.Option("--out", help="Folder for all outputs, one subfolder per spec (default: each spec's out/<stem>/).")] = None,
+    no_pdf: Annotated[bool, typer.Option("--no-pdf", help="Skip the PDF certificates.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Replace existing certificates.")] = False,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
+) -> None:
+    """Calibrate a fleet: run every spec (one certificate each) in parallel; exit 1 if any spec failed."""
+    from armcal.batch import batch as run_batch, exit_code
+    from armcal.summary import batch_summary
+
+    with _progress_bar("specs") as show:
+        outcomes = run_batch(specs, out, force, not no_pdf, workers, scheduler, show)
+    typer.echo(batch_summary(outcomes))
+    raise typer.Exit(exit_code(outcomes))
 
 
 @app.command("import-ipa")

@@ -92,3 +92,41 @@ def run_summary(outcome) -> str:
     written = ["results.json", "calibrated.yaml", "certificate.html"] + (["certificate.pdf"] if (outcome.out_dir / "certificate.pdf").exists() else [])
     lines.append(f"  wrote {', '.join(written)} in {outcome.out_dir}")
     return "\n".join(lines)
+
+
+def study_summary(study) -> str:
+    """What `armcal montecarlo` prints: per point the spread of the indices under both controllers, the trend."""
+    s = study.summary
+    sweep = s["sweep"]
+    lines = [f"Monte-Carlo study: {s['runs']} robots per point, {s['method']}, {s['backend']}, {s['elapsed_s']:.1f} s"]
+    radial = lambda point, controller: [r[controller]["std"] for r in point["indices"] if r["index"].endswith("radial")]  # noqa: E731
+    unit = s["points"][0]["indices"][0]["unit"]
+    header = f"  {sweep['variable'] + ' (' + sweep['unit'] + ')' if sweep else 'point':>24s}  radial error std ({unit}), vertices 1/4/5/8: design | calibrated"
+    lines.append(header)
+    for point in s["points"]:
+        label = f"{point['value']:g}" if sweep else "spec"
+        design, calibrated = (" ".join(f"{v:.4f}" for v in radial(point, c)) for c in ("design", "calibrated"))
+        failed = s["runs"] - point["converged"]
+        lines.append(f"  {label:>24s}  {design} | {calibrated}" + (f"  ({failed} fits not converged)" if failed else ""))
+    if s["trend"]:
+        t = s["trend"]
+        lines.append(
+            f"  trend of the {t['controller']} indices' std: slope {t['median_slope']:.2f} (median of 34; lengths {t['length_slope']:.2f},"
+            f" angles {t['angle_slope']:.2f}, radial {t['radial_slope']:.2f});"
+            f" {t['source']} found {t['expected_slope']:g}"
+        )
+    lines.append(f"  wrote {', '.join(p.name for p in study.files)} in {study.out_dir}")
+    return "\n".join(lines)
+
+
+def batch_summary(outcomes: list[dict]) -> str:
+    """What `armcal batch` prints: one line per spec."""
+    lines = [f"{len(outcomes)} specs: {sum(o['exit_code'] == 0 for o in outcomes)} converged"]
+    for o in outcomes:
+        if o["status"] == "error":
+            lines.append(f"  {o['spec']}: {o['error']}")
+            continue
+        before, after = o["calibration_rms"]
+        held = f", validation {o['validation_rms'][0]:.4g} -> {o['validation_rms'][1]:.4g}" if o["validation_rms"] else ""
+        lines.append(f"  {o['spec']}: {o['robot']} {o['status']}, RMS {before:.4g} -> {after:.4g} {o['unit']}{held}; {o['out_dir']}")
+    return "\n".join(lines)

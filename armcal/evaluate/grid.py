@@ -12,6 +12,8 @@ numbering; here they are the X, Y and Z lines through vertex 1 (lines 1, 2, 9).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 LINES = [(1, 2), (1, 3), (2, 4), (3, 4), (5, 6), (5, 7), (6, 8), (7, 8), (1, 5), (2, 6), (3, 7), (4, 8)]
@@ -52,32 +54,74 @@ def grid_indices(actual: np.ndarray, desired: np.ndarray) -> dict[str, float]:
     return out
 
 
+@dataclass(frozen=True)
+class TaskControl:
+    """A task's desired frames under design-model control (Stone 7.2.2) and calibrated control (7.2.3).
+
+    Design control solves the task once with the design model (many starts, the
+    solution nearest the design's); calibrated control solves it with an identified
+    model by Newton-Raphson (5.4) started from the design solution, halving steps that
+    would not reduce the error (an identified pseudo-DH model can be near-singular,
+    Table 6-3). The true robot
+    then goes to both solutions. ``frame`` is the tool centre point: the tool, or the
+    one target an instrument measured (the flange itself is then not observed, only
+    that point). ``teach``: when the instrument's transform to the robot base was
+    identified too, the base frame is only known up to a rigid motion, so the task
+    frame is taught (Stone: models describe the internal kinematics; the task frame is
+    taught before the task) by the best rigid fit of the reached frames, for both
+    controls alike.
+    """
+
+    kinematics: object
+    desired: np.ndarray  # (N, 4, 4)
+    q_design: np.ndarray  # (N, n)
+    frame: str | None = None
+    teach: bool = False
+
+    @staticmethod
+    def plan(kinematics, desired: np.ndarray, p_design: np.ndarray, frame: str | None = None, teach: bool = False) -> "TaskControl | None":
+        """The task solved with the design model; None when the design model cannot reach it."""
+        from armcal.kinematics import ik
+
+        q_design = ik.solve_from_starts(kinematics, ik.pose_goals(desired), frame=frame, p=p_design, starts=48)  # few goals: afford many starts
+        return None if np.isnan(q_design).any() else TaskControl(kinematics, desired, q_design, frame, teach)
+
+    def reached(self, truth, p_calibrated: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Frames (N, 4, 4) the true robot reaches under design-model and under calibrated control."""
+        from armcal.kinematics import ik
+
+        goals = ik.pose_goals(self.desired)
+        q_calibrated = ik.solve(self.kinematics, goals, self.q_design, frame=self.frame, p=p_calibrated, halvings=ik.SAFE_HALVINGS).q
+        count = len(self.desired)
+        extras = {"t": np.zeros(count), "temperature": np.full(count, 20.0), "dir": np.ones((count, self.kinematics.dof))}
+        reach = (lambda q: truth.target_poses(self.frame, q, extras)) if self.frame else (lambda q: truth.tool_poses(q, extras))
+        seen = (lambda q: taught(reach(q), self.desired)) if self.teach else reach
+        return seen(self.q_design), seen(q_calibrated)
+
+    def describe(self) -> dict:
+        return {"tool_centre_point": self.frame or "tool", "task_frame": "taught by best fit" if self.teach else "robot base"}
+
+
 def iso9283_evaluation(kinematics, p_design, p_calibrated, truth, units, cube, frame: str | None = None, teach: bool = False) -> dict:
     """ISO 9283 positional accuracy AP at the cube's poses P1..P5, design-model vs calibrated control.
 
     AP is the distance between the commanded and the attained position (one cycle:
     the simulated robot repeats perfectly); orientation as Rot(y, 180) Rot(z, 90) of 7.2.1.
     """
-    from armcal.kinematics import ik
     from armcal.kinematics.transforms import compose, rot_y, rot_z
     from armcal.procedures.tasks import iso9283_cube
     from armcal.units import from_internal
 
     desired = iso9283_cube([cube.x, cube.y, cube.z], cube.side, compose(rot_y(np.pi), rot_z(np.pi / 2))[:3, :3])
-    goals = ik.pose_goals(desired)
-    q_design = ik.solve_from_starts(kinematics, goals, frame=frame, p=p_design, starts=48)
-    if np.isnan(q_design).any():
+    control = TaskControl.plan(kinematics, desired, p_design, frame, teach)
+    if control is None:
         return {"skipped": "the ISO 9283 cube is not reachable by this robot's design model"}
-    q_calibrated = ik.solve(kinematics, goals, q_design, frame=frame, p=p_calibrated).q
-    extras = {"t": np.zeros(5), "temperature": np.full(5, 20.0), "dir": np.ones((5, kinematics.dof))}
-    reach = (lambda q: truth.target_poses(frame, q, extras)) if frame else (lambda q: truth.tool_poses(q, extras))
-    seen = (lambda q: taught(reach(q), desired)) if teach else reach
     rows = []
-    for k, (d, c) in enumerate(zip(seen(q_design), seen(q_calibrated)), start=1):
+    for k, (d, c) in enumerate(zip(*control.reached(truth, p_calibrated)), start=1):
         ap_d, ap_c = (float(np.linalg.norm(x[:3, 3] - desired[k - 1, :3, 3])) for x in (d, c))
         rows.append({"pose": f"P{k}", "unit": units.length, "design": from_internal(ap_d, "length", units.length),
                      "calibrated": from_internal(ap_c, "length", units.length), "improvement_factor": ap_d / ap_c if ap_c else float("inf")})
-    return {"tool_centre_point": frame or "tool", "task_frame": "taught by best fit" if teach else "robot base", "poses": rows}
+    return {**control.describe(), "poses": rows}
 
 
 def taught(reached: np.ndarray, desired: np.ndarray) -> np.ndarray:
@@ -88,40 +132,30 @@ def taught(reached: np.ndarray, desired: np.ndarray) -> np.ndarray:
     return np.einsum("ij,njk->nik", T, reached)
 
 
+def index_kind(name: str) -> str:
+    """A grid index is an angle (orientation, perpendicularity) or a length."""
+    return "angle" if ("orientation" in name or "perpendicularity" in name) else "length"
+
+
 def grid_evaluation(
     kinematics, p_design: np.ndarray, p_calibrated: np.ndarray, truth, units, frame: str | None = None, teach: bool = False
 ) -> dict:
     """Design-model vs calibrated control on the true robot (Stone 6.6, 7.2.2-7.2.3), in the spec's units.
 
-    Design control solves the grid with the design model; calibrated control with
-    the identified model, by Newton-Raphson started from the design solution (5.4).
-    The true robot then goes to both solutions; each index's improvement factor is
-    |design error| / |calibrated error| (Tables 6-10, 6-11). ``frame`` is the tool
-    centre point: the tool, or the one target an instrument measured (the flange
-    itself is then not observed, only that point). ``teach``: when the instrument's
-    transform to the robot base was identified too, the base frame is only known up
-    to a rigid motion, so the task frame is taught (Stone: models describe the
-    internal kinematics; the task frame is taught before the task) by the best rigid
-    fit of the reached vertices, for both controls alike.
+    Each index's improvement factor is |design error| / |calibrated error| (Tables 6-10, 6-11).
     """
-    from armcal.kinematics import ik
     from armcal.procedures.tasks import grid_task
     from armcal.units import from_internal
 
-    desired = grid_task()
-    goals = ik.pose_goals(desired)
-    q_design = ik.solve_from_starts(kinematics, goals, frame=frame, p=p_design, starts=48)  # 12 goals: afford many starts
-    if np.isnan(q_design).any():
+    control = TaskControl.plan(kinematics, grid_task(), p_design, frame, teach)
+    if control is None:
         return {"skipped": "the grid of Table 7-1 is not reachable by this robot's design model"}
-    q_calibrated = ik.solve(kinematics, goals, q_design, frame=frame, p=p_calibrated).q
-    extras = {"t": np.zeros(12), "temperature": np.full(12, 20.0), "dir": np.ones((12, kinematics.dof))}
-    reach = (lambda q: truth.target_poses(frame, q, extras)) if frame else (lambda q: truth.tool_poses(q, extras))
-    seen = (lambda q: taught(reach(q), desired)) if teach else reach
-    design = grid_indices(seen(q_design), desired)
-    calibrated = grid_indices(seen(q_calibrated), desired)
+    reached_design, reached_calibrated = control.reached(truth, p_calibrated)
+    design = grid_indices(reached_design, control.desired)
+    calibrated = grid_indices(reached_calibrated, control.desired)
     rows = []
     for name in design:
-        kind = "angle" if ("orientation" in name or "perpendicularity" in name) else "length"
+        kind = index_kind(name)
         unit = units.angle if kind == "angle" else units.length
         d, c = design[name], calibrated[name]
         rows.append(
@@ -133,7 +167,7 @@ def grid_evaluation(
                 "improvement_factor": abs(d) / abs(c) if c else float("inf"),
             }
         )
-    return {"tool_centre_point": frame or "tool", "task_frame": "taught by best fit" if teach else "robot base", "indices": rows}
+    return {**control.describe(), "indices": rows}
 
 
 def evaluation_tasks(spec, kinematics, calibrated, truth: dict | None) -> dict:

@@ -21,6 +21,7 @@ import numpy as np
 from armcal.kinematics.compiler import KinematicModel
 
 DAMPING = 1e-6  # Levenberg damping of the Newton step, well below J^T J's scale near a solution
+SAFE_HALVINGS = 12  # for solve(halvings=...): a step that does not reduce the error is halved up to this many times
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,7 @@ def solve(
     tol_position: float = 1e-6,
     tol_rotation: float = 1e-9,
     max_iterations: int = 40,
+    halvings: int = 0,
 ) -> IKResult:
     """Solve N goals (N, 12) poses [p, x-axis, y-axis, z-axis] or (N, 6) [p, z-axis] from q0 (N, n) or (n,)."""
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
@@ -59,25 +61,37 @@ def solve(
     Q = np.array(np.broadcast_to(q0, (count, model.dof)), dtype=float)
     function = _error_function(model, frame, goals.shape[1] == 12)
     p = model.parameter_vector(p)
-    active = np.ones(count, dtype=bool)
-    for iteration in range(max_iterations + 1):
-        rows = np.flatnonzero(active)
-        delta, J = _evaluate(function, Q[rows], p, goals[rows])
-        active[rows] = ~_done(delta, tol_position, tol_rotation) & np.isfinite(delta).all(axis=1)
-        keep = active[rows]
-        if not keep.any() or iteration == max_iterations:
+    delta, J = _evaluate(function, Q, p, goals)
+    for _ in range(max_iterations):
+        rows = np.flatnonzero(~_done(delta, tol_position, tol_rotation) & np.isfinite(delta).all(axis=1))
+        if not len(rows):
             break
-        rows, delta, J = rows[keep], delta[keep], J[keep]
-        JT = J.transpose(0, 2, 1)
-        rhs = np.einsum("nij,nj->ni", JT, delta)[..., None]
-        Q[rows] -= np.linalg.solve(JT @ J + DAMPING * np.eye(model.dof), rhs)[..., 0]  # (5.4)
-    delta = _evaluate(function, Q, p, goals)[0]
+        JT = J[rows].transpose(0, 2, 1)
+        rhs = np.einsum("nij,nj->ni", JT, delta[rows])[..., None]
+        step = np.linalg.solve(JT @ J[rows] + DAMPING * np.eye(model.dof), rhs)[..., 0]  # (5.4)
+        _backtracked_step(function, p, goals, Q, delta, J, rows, step, halvings)
     return IKResult(
         q=Q,
         converged=_done(delta, tol_position, tol_rotation),
         position_error=np.linalg.norm(delta[:, :3], axis=1),
         rotation_error=np.linalg.norm(delta[:, 3:], axis=1),
     )
+
+
+def _backtracked_step(function, p, goals, Q, delta, J, rows, step, halvings: int) -> None:
+    """Q[rows] -= step, halved up to ``halvings`` times where it would not reduce |delta| (a near-singular
+    model, e.g. the pseudo-DH of near-parallel axes with d of kilometres (Table 6-3), can send a full
+    step astray). Q, delta and J are updated in place; after the last halving the step is taken as it is."""
+    error = (delta[rows] ** 2).sum(axis=1)
+    for halving in range(halvings + 1):
+        trial = Q[rows] - step
+        trial_delta, trial_J = _evaluate(function, trial, p, goals[rows])
+        take = ((trial_delta**2).sum(axis=1) < error) | (halving == halvings)
+        taken = rows[take]
+        Q[taken], delta[taken], J[taken] = trial[take], trial_delta[take], trial_J[take]
+        rows, step, error = rows[~take], step[~take] / 2, error[~take]
+        if not len(rows):
+            return
 
 
 def _evaluate(function: ca.Function, Q: np.ndarray, p: np.ndarray, goals: np.ndarray):

@@ -14,7 +14,7 @@ plt.rcParams.update({"font.size": 8, "svg.fonttype": "none", "figure.dpi": 100})
 SERIES_STYLE = {"before": dict(color="0.6", marker="o", ms=3, lw=1), "after": dict(color="black", marker="o", ms=3, lw=1)}
 
 
-def _svg(figure) -> str:
+def svg(figure) -> str:
     buffer = io.StringIO()
     figure.savefig(buffer, format="svg", bbox_inches="tight")
     plt.close(figure)
@@ -52,7 +52,7 @@ def histogram(evidence: dict) -> str:
     axis.set_ylabel("count")
     axis.locator_params(axis="x", nbins=7)
     axis.legend(frameon=False, fontsize=6, loc="upper left")
-    return _svg(figure)
+    return svg(figure)
 
 
 def against(evidence: dict, section: str, xlabel: str) -> str:
@@ -65,7 +65,7 @@ def against(evidence: dict, section: str, xlabel: str) -> str:
         axis.set_xlabel(xlabel)
         axis.set_ylabel(f"|residual| ({evidence['unit']})")
     axes[0].legend(frameon=False, fontsize=6)
-    return _svg(figure)
+    return svg(figure)
 
 
 def over(evidence: dict, name: str, xlabel: str) -> str:
@@ -74,7 +74,7 @@ def over(evidence: dict, name: str, xlabel: str) -> str:
     axis.set_xlabel(xlabel)
     axis.set_ylabel(f"|residual| ({evidence['unit']})")
     axis.legend(frameon=False, fontsize=6)
-    return _svg(figure)
+    return svg(figure)
 
 
 def per_key(evidence: dict) -> str:
@@ -86,7 +86,7 @@ def per_key(evidence: dict) -> str:
     axis.set_xticks(list(positions), [k["key"] for k in keys], rotation=45, ha="right")
     axis.set_ylabel(f"RMS ({evidence['unit']})")
     axis.legend(frameon=False, fontsize=6)
-    return _svg(figure)
+    return svg(figure)
 
 
 def draw_plots(evidence: dict) -> dict[str, str]:

@@ -43,27 +43,50 @@ class Campaign:
 
 def simulate_campaign(spec: Spec, spec_dir: Path) -> Campaign:
     """Calibration and validation data of a spec's procedures, from one random true robot."""
-    settings = spec.simulate or fx.Simulate()
-    truth_rng, *noise_rngs = (np.random.default_rng(s) for s in np.random.SeedSequence(settings.seed).spawn(3))
-    kinematics = compile_robot(spec.robot)
-    device = device_model(spec)
-    robot = TrueRobot.draw(kinematics, settings, truth_rng)
-    pd = _true_device_parameters(device, settings, robot.effects, truth_rng)
-    sets, dropped, start = [], {}, 0.0
-    for name, procedure, rng in (("calibration", spec.procedure, noise_rngs[0]), ("validation", spec.validation, noise_rngs[1])):
+    return CampaignSimulator(spec, spec_dir).run((spec.simulate or fx.Simulate()).seed)
+
+
+class CampaignSimulator:
+    """A spec's campaign, compiled and planned once, measured on as many random true robots as asked.
+
+    Every robot comes from its own seed: the same seed gives the same robot and the
+    same readings, whoever runs it (Monte-Carlo studies draw robot i from seed i).
+    """
+
+    def __init__(self, spec: Spec, spec_dir: Path, validation: bool = True):
+        self.spec = spec
+        self.settings = spec.simulate or fx.Simulate()
+        self.kinematics = compile_robot(spec.robot)
+        self.device = device_model(spec)
+        procedures = (("calibration", spec.procedure), ("validation", spec.validation if validation else None))
+        self.plans = {name: self._plan(name, procedure, spec_dir) for name, procedure in procedures}
+
+    def _plan(self, name: str, procedure, spec_dir: Path) -> Plan | None:
         if procedure is None:
-            sets.append(None)
-            continue
-        planned = plan(procedure, kinematics, device, spec, spec_dir)
+            return None
+        planned = plan(procedure, self.kinematics, self.device, self.spec, spec_dir)
         if not len(planned):
             reasons = "; ".join(f"{count} {why}" for why, count in planned.dropped.items()) or "no poses"
             raise UserError(f"the {name} procedure plans no pose the instrument can read ({reasons})")
-        measurements = _measure(spec, settings, robot, device, pd, planned, rng, start)
-        start = float(measurements.extras["t"][-1]) + settings.time_step
-        sets.append(measurements)
-        dropped[name] = planned.dropped
-    truth = {**robot.describe(), "device_parameters": dict(zip(device.parameters.names, pd.tolist()))}
-    return Campaign(sets[0], sets[1], truth, dropped)
+        return planned
+
+    def run(self, seed) -> Campaign:
+        """The campaign measured on the true robot of ``seed`` (an int or a numpy SeedSequence)."""
+        sequence = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        truth_rng, *noise_rngs = (np.random.default_rng(s) for s in sequence.spawn(3))
+        robot = TrueRobot.draw(self.kinematics, self.settings, truth_rng)
+        pd = _true_device_parameters(self.device, self.settings, robot.effects, truth_rng)
+        sets, dropped, start = [], {}, 0.0
+        for (name, planned), rng in zip(self.plans.items(), noise_rngs):
+            if planned is None:
+                sets.append(None)
+                continue
+            measurements = _measure(self.spec, self.settings, robot, self.device, pd, planned, rng, start)
+            start = float(measurements.extras["t"][-1]) + self.settings.time_step
+            sets.append(measurements)
+            dropped[name] = planned.dropped
+        truth = {**robot.describe(), "device_parameters": dict(zip(self.device.parameters.names, pd.tolist()))}
+        return Campaign(sets[0], sets[1], truth, dropped)
 
 
 def _true_device_parameters(device: DeviceModel, settings: fx.Simulate, effects: EffectSet, rng: np.random.Generator) -> np.ndarray:
@@ -111,7 +134,7 @@ def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned:
             for name, column in rods.items():
                 readings.setdefault(name, np.full(count, np.nan))[rows] = column
         elif settings.noise:
-            values = values + rng.normal(size=values.shape) * device.sigma(key, values)
+            values = values + rng.normal(size=values.shape) * device.sigma(key, values) * settings.noise_factor
         if target is None:
             q[rows] = np.nan  # not a robot pose: no joint readings
         for c, channel in enumerate(device.channels(key)):
@@ -141,13 +164,13 @@ def _sonic_physics(spec, settings, device: SonicModel, key, distances, poses, pd
         speed = speed_of_sound(temperature(microphones[rod.microphone] @ up))
         for i, distance in enumerate((ROD_NEAR, ROD_NEAR + rod.length), start=1):
             rods[f"rod_{rod.microphone}_{i}"] = np.full(len(raw), raw_range(distance, speed, speed, sonic.speed_of_sound))
-    averaged = lambda values: _averaged_readings(device, values, rng) if settings.noise else values  # noqa: E731
+    averaged = lambda values: _averaged_readings(device, values, rng, settings.noise_factor) if settings.noise else values  # noqa: E731
     return averaged(raw), {name: averaged(column[:, None])[:, 0] for name, column in rods.items()}
 
 
-def _averaged_readings(device: SonicModel, values: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Mean of N_avg readings, each with noise sigma(range) (7.9) and quantised to the resolution."""
-    sigma = device.spec.noise.a * values + device.spec.noise.b
+def _averaged_readings(device: SonicModel, values: np.ndarray, rng: np.random.Generator, factor: float) -> np.ndarray:
+    """Mean of N_avg readings, each with noise k sigma(range) (7.9, 7.4.3) and quantised to the resolution."""
+    sigma = factor * (device.spec.noise.a * values + device.spec.noise.b)
     readings = values[..., None] + rng.normal(size=(*values.shape, device.averaging)) * sigma[..., None]
     resolution = device.spec.resolution
     if resolution > 0:

@@ -152,6 +152,7 @@ class Simulate(SpecModel):
     sigma_o: Angle = Field(0.01 * DEG, ge=0.0, description="orientational manufacturing error sigma (Stone 7.2)")
     sigma_e: Angle = Field(0.1 * DEG, ge=0.0, description="encoder calibration error sigma (Stone 7.2)")
     noise: bool = True
+    noise_factor: float = Field(1.0, gt=0.0, description="k: the instrument's noise sigma times k (Stone 7.4.3)")
     effects: list[Effect] = Field([], description="hidden effects, never visible to the fit")
     time_step: float = Field(10.0, ge=0.0, description="seconds between samples (t column)")
     temperature: tuple[float, float] | None = Field(None, description="start and end temperature, degC")

@@ -1,0 +1,134 @@
+"""Stone's Monte-Carlo study (7.2-7.4): many simulated robots, each identified, then the grid task.
+
+Robot i of a study is drawn from seed i (Stone's manufacturing-error model 7.1-7.8
+generalised, simulate/truth.py), measured by the spec's procedure with the
+instrument's noise (7.9), identified by the spec's method, and sent to the 34
+grid vertices of Table 7-1 under design-model control (7.2.2) and under control
+with the identified model (7.2.3). The statistics of the 34 indices over the
+robots (mean, standard deviation) are Stone's output; a sweep repeats the study
+at several values of one input (sweeps.py) with the same robots (the same seeds:
+common random numbers, so a trend is not masked by drawing other robots).
+
+Work is split in chunks of robots; a worker builds a study's simulator, model and
+design-control solution once and keeps it for the chunks that follow.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from armcal.devices import device_model
+from armcal.errors import UserError
+from armcal.evaluate.grid import TaskControl, grid_indices, measured_point
+from armcal.identify.feature_fit import feature_parameters
+from armcal.identify.fit import fit
+from armcal.identify.problem import build_problem, combined_parameters
+from armcal.procedures.tasks import grid_task
+from armcal.simulate.campaign import CampaignSimulator
+from armcal.simulate.truth import TrueRobot
+from armcal.spec.model import Spec
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """Robots ``robots`` of study point ``point``: what one task of a worker computes."""
+
+    spec: Spec
+    spec_dir: Path
+    point: int
+    robots: tuple[int, ...]
+    seed: int
+
+
+@dataclass(frozen=True)
+class ChunkResult:
+    point: int
+    robots: tuple[int, ...]
+    design: np.ndarray  # (robots, 34) grid indices, mm / rad
+    calibrated: np.ndarray  # (robots, 34)
+    converged: np.ndarray  # (robots,) bool: the identification converged
+
+
+class RobotStudy:
+    """One study point: the simulator, the identification and the design-model solution of the grid."""
+
+    def __init__(self, spec: Spec, spec_dir: Path):
+        self.spec = spec
+        self.simulator = CampaignSimulator(spec, spec_dir, validation=False)
+        kinematics = self.simulator.kinematics
+        mode = "points" if spec.fit.method == "s_model_features" else spec.fit.sonic_readings
+        self.fit_device = device_model(spec, mode)
+        free = {e.name for e in self.fit_device.parameters.entries if e.free}
+        teach = any(name.startswith("robot_base.") for name in free)
+        control = TaskControl.plan(kinematics, grid_task(), kinematics.parameters.nominal, measured_point(spec), teach)
+        if control is None:
+            raise UserError("the grid of Table 7-1 is not reachable by this robot's design model; a Monte-Carlo study needs it")
+        self.control = control
+
+    def robot(self, seed: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Grid indices (34,) under design-model and calibrated control of the robot of ``seed``, and convergence."""
+        kinematics = self.simulator.kinematics
+        campaign = self.simulator.run(seed)
+        theta, converged = self._identify(campaign.calibration)
+        truth = TrueRobot.from_record(kinematics, campaign.truth)
+        design, calibrated = self.control.reached(truth, theta[: len(kinematics.parameters)])
+        desired = self.control.desired
+        return _values(grid_indices(design, desired)), _values(grid_indices(calibrated, desired)), converged
+
+    def _identify(self, raw) -> tuple[np.ndarray, bool]:
+        """The spec's method: Stone's features alone (as in his study), or Levenberg-Marquardt."""
+        data = self.fit_device.prepare(raw)
+        kinematics = self.simulator.kinematics
+        if self.spec.fit.method == "s_model_features":
+            theta, _ = feature_parameters(self.spec, data, combined_parameters(kinematics, self.fit_device))
+            return theta, True
+        result = fit(build_problem(kinematics, self.fit_device, data), self.spec.fit)
+        return result.theta, result.solver.status == "converged"
+
+
+def _values(indices: dict[str, float]) -> np.ndarray:
+    return np.fromiter(indices.values(), dtype=float)
+
+
+_STUDIES: dict[str, RobotStudy] = {}  # per worker process: study points already built
+
+
+def _study(spec: Spec, spec_dir: Path) -> RobotStudy:
+    key = hashlib.sha256(f"{spec_dir}|{spec.model_dump_json()}".encode()).hexdigest()
+    if key not in _STUDIES:
+        _STUDIES.clear()  # a worker keeps the point it is on; chunks come point by point
+        _STUDIES[key] = RobotStudy(spec, spec_dir)
+    return _STUDIES[key]
+
+
+def robot_seeds(seed: int, runs: int) -> list[np.random.SeedSequence]:
+    """Robot i's seed, the same at every point of a sweep and whoever computes it."""
+    return np.random.SeedSequence(seed).spawn(runs)
+
+
+def run_chunk(chunk: Chunk) -> ChunkResult:
+    """Identify and evaluate the chunk's robots (a worker's task)."""
+    study = _study(chunk.spec, chunk.spec_dir)
+    seeds = robot_seeds(chunk.seed, max(chunk.robots) + 1)
+    design, calibrated, converged = zip(*(study.robot(seeds[i]) for i in chunk.robots))
+    return ChunkResult(chunk.point, chunk.robots, np.array(design), np.array(calibrated), np.array(converged))
+
+
+def chunks(points: list[Spec], spec_dir: Path, runs: int, seed: int, size: int) -> list[Chunk]:
+    """All robots of all points, ``size`` robots a task, point by point."""
+    return [
+        Chunk(spec, spec_dir, point, tuple(range(start, min(start + size, runs))), seed)
+        for point, spec in enumerate(points)
+        for start in range(0, runs, size)
+    ]
+
+
+def check_points(points: list[Spec], spec_dir: Path) -> None:
+    """Build the studies here first, so a user error is said before any work is sent out."""
+    _study(points[0], spec_dir)  # also solves the grid: the design model is the same at every point
+    for spec in points[1:]:
+        CampaignSimulator(spec, spec_dir, validation=False)

@@ -1,0 +1,137 @@
+"""``armcal montecarlo``: Stone's study (7.2-7.4) of a spec, on a process pool or a Dask cluster.
+
+Writes montecarlo.json (statistics of the 34 grid indices at every point, the
+trends of a sweep), montecarlo.csv (every robot's indices) and SVG plots, each
+file whole or not at all, once everything is computed.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from armcal import __version__
+from armcal.errors import UserError
+from armcal.evaluate.grid import grid_indices, index_kind
+from armcal.evaluate.montecarlo import ChunkResult, check_points, chunks, run_chunk
+from armcal.evaluate.study_statistics import index_statistics, trend
+from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, variant
+from armcal.parallel import default_workers, run_tasks
+from armcal.procedures.tasks import grid_task
+from armcal.report.render import write_files
+from armcal.report.study_plots import study_plots
+from armcal.spec import load_spec
+from armcal.units import from_internal
+
+INDEX_NAMES = list(grid_indices(grid_task(), grid_task()))
+
+
+@dataclass(frozen=True)
+class Study:
+    summary: dict  # what montecarlo.json holds
+    out_dir: Path
+    files: list[Path]
+
+
+def montecarlo(
+    spec_path: Path,
+    runs: int,
+    sweeps: list[str] = (),
+    seed: int | None = None,
+    out_dir: Path | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Study:
+    """Run ``runs`` simulated robots at every point of the (at most one) sweep; write the study's files."""
+    if runs < 2:
+        raise UserError(f"--runs {runs}: a study needs at least 2 robots for a standard deviation")
+    if len(sweeps) > 1:
+        raise UserError("give at most one --sweep: Stone varies one input at a time")
+    loaded = load_spec(spec_path)
+    spec, folder = loaded.spec, loaded.path.parent
+    sweep = parse_sweep(sweeps[0], spec) if sweeps else None
+    points = [variant(spec, sweep.variable, value) for value in sweep.values] if sweep else [spec]
+    seed = (spec.simulate.seed if spec.simulate else 0) if seed is None else seed
+    check_points(points, folder)
+    workers = workers or default_workers()
+    size = max(1, min(25, math.ceil(runs * len(points) / (4 * workers))))
+    total, done = runs * len(points), [0]
+
+    def robots_done(result: ChunkResult) -> None:
+        done[0] += len(result.robots)
+        if progress:
+            progress(done[0], total)
+
+    started = time.perf_counter()
+    results = run_tasks(run_chunk, chunks(points, folder, runs, seed, size), scheduler, workers, robots_done)
+    elapsed = time.perf_counter() - started
+    design, calibrated, converged = _collect(results, len(points), runs)
+    statistics = [index_statistics(INDEX_NAMES, design[k], calibrated[k], spec.robot.units) for k in range(len(points))]
+    summary = {
+        "armcal_version": __version__,
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "spec": {"path": str(loaded.path), "sha256": loaded.sha256},
+        "method": spec.fit.method,
+        "runs": runs,
+        "seed": seed,
+        "backend": f"dask ({scheduler})" if scheduler else f"process pool ({workers} workers)",
+        "elapsed_s": round(elapsed, 3),
+        "sweep": _describe(sweep, spec),
+        "points": [
+            {"value": sweep.shown[k] if sweep else None, "converged": int(converged[k].sum()), "indices": statistics[k]}
+            for k in range(len(points))
+        ],
+        "trend": trend(sweep, statistics) if sweep else None,
+    }
+    out_dir = Path(out_dir) if out_dir is not None else folder / "out" / loaded.path.stem / "montecarlo"
+    files = {
+        "montecarlo.json": json.dumps(summary, indent=2) + "\n",
+        "montecarlo.csv": _robots_csv(sweep, design, calibrated, spec.robot.units),
+        **study_plots(summary),
+    }
+    return Study(summary, out_dir, write_files(out_dir, files))
+
+
+def _collect(results: list[ChunkResult], count: int, runs: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Arrays (points, runs, 34) of both controllers' indices, and (points, runs) convergence."""
+    design = np.full((count, runs, len(INDEX_NAMES)), np.nan)
+    calibrated = np.full_like(design, np.nan)
+    converged = np.zeros((count, runs), dtype=bool)
+    for result in results:
+        robots = list(result.robots)
+        design[result.point, robots] = result.design
+        calibrated[result.point, robots] = result.calibrated
+        converged[result.point, robots] = result.converged
+    return design, calibrated, converged
+
+
+def _describe(sweep: Sweep | None, spec) -> dict | None:
+    if sweep is None:
+        return None
+    variable = VARIABLES[sweep.variable]
+    unit = {"length": spec.robot.units.length, "angle": spec.robot.units.angle}.get(variable.kind, "1")
+    return {"variable": sweep.variable, "meaning": variable.meaning, "unit": unit, "values": list(sweep.shown), "source": variable.source}
+
+
+def _robots_csv(sweep: Sweep | None, design: np.ndarray, calibrated: np.ndarray, units) -> str:
+    """One row per robot, point and controller; indices in the spec's units."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["variable", "value", "robot", "controller", *INDEX_NAMES])
+    factors = [from_internal(1.0, index_kind(n), units.angle if index_kind(n) == "angle" else units.length) for n in INDEX_NAMES]
+    for k in range(design.shape[0]):
+        for robot in range(design.shape[1]):
+            for controller, values in (("design", design), ("calibrated", calibrated)):
+                row = [f"{v * f:.6g}" for v, f in zip(values[k, robot], factors)]
+                writer.writerow([sweep.variable if sweep else "", f"{sweep.shown[k]:g}" if sweep else "", robot, controller, *row])
+    return buffer.getvalue()

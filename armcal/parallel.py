@@ -1,0 +1,66 @@
+"""Run independent tasks on a local process pool, or on a Dask distributed cluster.
+
+Both backends return the results in the order of the tasks, whatever order they
+finish in, so a study or a fleet gives the same results whichever ran it. Workers
+are fresh processes (spawned, not forked) that import armcal themselves; each
+task must be a picklable top-level function and its arguments.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from multiprocessing import get_context
+from typing import Any
+
+from armcal.errors import UserError
+
+Progress = Callable[[Any], None]  # called with each result as it arrives
+
+
+def default_workers() -> int:
+    """One worker per core the process may use."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def run_tasks(
+    function: Callable, tasks: Sequence, scheduler: str | None = None, workers: int | None = None, progress: Progress | None = None
+) -> list:
+    """[function(task) for task in tasks], run in parallel; ``scheduler`` is a Dask scheduler's address."""
+    report = progress or (lambda result: None)
+    if scheduler:
+        return _on_dask(function, tasks, scheduler, report)
+    workers = min(workers or default_workers(), len(tasks))
+    if workers <= 1:
+        results = []
+        for task in tasks:
+            results.append(function(task))
+            report(results[-1])
+        return results
+    results: list = [None] * len(tasks)
+    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+        position = {pool.submit(function, task): i for i, task in enumerate(tasks)}
+        for future in as_completed(position):
+            results[position[future]] = future.result()
+            report(results[position[future]])
+    return results
+
+
+def _on_dask(function: Callable, tasks: Sequence, scheduler: str, report: Progress) -> list:
+    try:
+        from distributed import Client, as_completed as dask_completed
+    except ImportError:
+        raise UserError("--scheduler needs Dask's distributed scheduler client: pip install 'armcal[dask]'") from None
+    try:
+        client = Client(scheduler, timeout="10s", set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        raise UserError(f"cannot reach the Dask scheduler at {scheduler} ({exc})") from None
+    with client:
+        futures = client.map(function, list(tasks), pure=False)
+        position = {future.key: i for i, future in enumerate(futures)}
+        results: list = [None] * len(tasks)
+        for future in dask_completed(futures, loop=client.loop):
+            results[position[future.key]] = future.result()
+            report(results[position[future.key]])
+    return results

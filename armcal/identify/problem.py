@@ -2,16 +2,16 @@
 
 theta = [robot parameters; device parameters]. Each sample contributes one
 residual per reading, (predicted - measured) / sigma with sigma from the
-device's noise model (angles wrapped to [-pi, pi]). One CasADi Function of
-theta evaluates every sample: for each key a mapped call of a compiled function
-(identify/compiled.py) that returns the readings and their exact Jacobian, from
-automatic differentiation of the measurement function (never finite differences).
+device's noise model (angles wrapped to [-pi, pi]). Each key's samples are
+evaluated by one mapped call of a compiled function (identify/compiled.py) that
+returns the readings and their exact Jacobian, from automatic differentiation of
+the measurement function (never finite differences); the data are inputs of that
+call, not constants of a graph, and the weighting is done in numpy on its outputs.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import casadi as ca
 import numpy as np
@@ -41,32 +41,74 @@ class Residual:
 class Problem:
     parameters: ParameterSet  # robot then device parameters
     n_robot: int
-    function: ca.Function  # theta -> (r (M,), J (M, n_theta)): all samples in one call
+    blocks: tuple["KeyBlock", ...]  # the samples of each key, in the order of the residuals
     residuals: Residual
 
     def evaluate(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Weighted residuals (M,) and their Jacobian (M, len(theta))."""
-        r, J = self._call(theta)
-        return r.ravel(), J
+        theta = np.asarray(theta, dtype=float).ravel()
+        parts = [block.weighted(theta) for block in self.blocks]
+        return np.concatenate([r for r, _ in parts]), np.concatenate([J for _, J in parts])
 
-    @cached_property
-    def _call(self) -> "BufferedCall":
-        return BufferedCall(self.function)
+
+@dataclass(frozen=True)
+class ChannelRows:
+    """The readings of one channel of a key that take part: rows, measured values, weights 1 / sigma."""
+
+    channel: int
+    rows: np.ndarray
+    measured: np.ndarray
+    weight: np.ndarray
+    angle: bool
+
+
+class KeyBlock:
+    """All samples of one key: one mapped call of the key's compiled function, then weighting in numpy.
+
+    The joint readings and extras are the mapped call's fixed inputs; theta is the
+    only one that changes. Predicted minus measured, wrapped for angles, over sigma;
+    the Jacobian rows of sample k are columns k n..(k+1) n of the mapped output.
+    """
+
+    def __init__(self, function: ca.Function, Q: np.ndarray, X: np.ndarray, sizes: tuple[int, int, int], channels: list[ChannelRows]):
+        n_robot, n_device, _ = sizes
+        count = len(Q)
+        q, x, theta = ca.MX.sym("Q", *Q.T.shape), ca.MX.sym("X", *X.T.shape), ca.MX.sym("theta", sum(sizes))
+        p, pd, pe = theta[:n_robot], theta[n_robot : n_robot + n_device], theta[n_robot + n_device :]
+        mapped = ca.Function("block", [q, x, theta], list(function.map(count)(q, x, p, pd, pe)))
+        self._call = BufferedCall(mapped, {0: Q.T, 1: X.T})
+        self._count, self._n = count, sum(sizes)
+        self.channels = channels
+
+    def weighted(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        values, jacobian = self._call(theta)
+        r_parts, J_parts = [], []
+        for c in self.channels:
+            difference = values[c.channel, c.rows] - c.measured
+            if c.angle:
+                difference = np.arctan2(np.sin(difference), np.cos(difference))
+            r_parts.append(difference * c.weight)
+            J_parts.append(jacobian[c.channel].reshape(self._count, self._n)[c.rows] * c.weight[:, None])
+        return np.concatenate(r_parts), np.concatenate(J_parts)
 
 
 class BufferedCall:
-    """Evaluates a one-input CasADi Function through its FunctionBuffer: numpy in, numpy out.
+    """Evaluates a CasADi Function through its FunctionBuffer: numpy in, numpy out.
 
     Converting the outputs from CasADi matrices costs more than evaluating them;
     the buffer writes each output's nonzeros straight into numpy memory, which
-    are then scattered into dense arrays (fresh ones on every call).
+    are then scattered into dense arrays (fresh ones on every call). ``fixed``
+    inputs are set once; the call gives the remaining input (the last).
     """
 
-    def __init__(self, function: ca.Function):
-        self._input = np.zeros(function.nnz_in(0))
-        self._nonzeros, self._shapes, self._positions = [], [], []
+    def __init__(self, function: ca.Function, fixed: dict[int, np.ndarray] | None = None):
         self._buffer, self._run = function.buffer()
-        self._buffer.set_arg(0, memoryview(self._input))
+        self._inputs = {i: np.ascontiguousarray(np.asarray(v, dtype=float).T).ravel() for i, v in (fixed or {}).items()}  # column-major
+        self._free = function.n_in() - 1
+        self._inputs[self._free] = np.zeros(function.nnz_in(self._free))
+        for i, array in self._inputs.items():
+            self._buffer.set_arg(i, memoryview(array))
+        self._nonzeros, self._shapes, self._positions = [], [], []
         for i in range(function.n_out()):
             sparsity = function.sparsity_out(i)
             shape = (sparsity.size1(), sparsity.size2())
@@ -77,7 +119,7 @@ class BufferedCall:
             self._buffer.set_res(i, memoryview(self._nonzeros[i]))
 
     def __call__(self, x: np.ndarray) -> tuple[np.ndarray, ...]:
-        self._input[:] = np.asarray(x, dtype=float).ravel()
+        self._inputs[self._free][:] = np.asarray(x, dtype=float).ravel()
         self._run()
         outputs = []
         for nonzeros, shape, positions in zip(self._nonzeros, self._shapes, self._positions):
@@ -112,11 +154,9 @@ def build_problem(
     canonical = sorted(key_rows, key=str)  # one library serves every data set with the same keys
     identity = f"{kinematics.identity}|{device.identity}|{effects.identity}|{[str(k) for k in canonical]}"
     functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, effects, k) for k in canonical], identity)))
-    n_robot, n_device = len(kinematics.parameters), len(device.parameters)
-    theta = ca.MX.sym("theta", len(parameters))
-    p, pd, pe = theta[:n_robot], theta[n_robot : n_robot + n_device], theta[n_robot + n_device :]
+    sizes = (len(kinematics.parameters), len(device.parameters), len(effects.parameters))
     extras = extras_matrix(data.extras, len(data), kinematics.dof)
-    r_parts, J_parts = [], []
+    blocks = []
     for key, rows in key_rows.items():
         key_channels = device.channels(key)
         if key == BAR_LENGTH:  # the bar's calibrated length, a pseudo-observation from the spec
@@ -126,26 +166,20 @@ def build_problem(
             y = np.stack([data.readings[c.name][rows] for c in key_channels], axis=1)
             Q, X = np.nan_to_num(data.q[rows]), extras[rows]
         sigma = device.sigma(key, y)
-        count = len(rows)
-        value, jacobian = functions[key].map(count)(ca.DM(Q.T), ca.DM(X.T), p, pd, pe)  # (m, N), (m, n_theta N)
+        taking = []
         for c, channel in enumerate(key_channels):
             ok = np.flatnonzero(~np.isnan(y[:, c]))
             if not len(ok):
                 continue
-            difference = value[c, ok.tolist()].T - ca.DM(y[ok, c])
-            if channel.kind == "angle":
-                difference = ca.atan2(ca.sin(difference), ca.cos(difference))
-            weight = ca.DM(1.0 / sigma[ok, c])
-            J_rows = ca.reshape(jacobian[c, :], len(parameters), count).T[ok.tolist(), :]
-            r_parts.append(difference * weight)
-            J_parts.append(J_rows * ca.repmat(weight, 1, len(parameters)))
+            taking.append(ChannelRows(c, ok, y[ok, c], 1.0 / sigma[ok, c], channel.kind == "angle"))
             samples.append(rows[ok])
             channels += [channel.name] * len(ok)
             kinds += [channel.kind] * len(ok)
             keys += [key] * len(ok)
             sigmas.append(sigma[ok, c])
             measured.append(y[ok, c])
-    function = ca.Function("residuals", [theta], [ca.vertcat(*r_parts), ca.vertcat(*J_parts)], ["theta"], ["r", "J"])
+        if taking:
+            blocks.append(KeyBlock(functions[key], Q, X, sizes, taking))
     residual = Residual(
         sample=np.concatenate(samples),
         channel=tuple(channels),
@@ -154,7 +188,7 @@ def build_problem(
         sigma=np.concatenate(sigmas),
         measured=np.concatenate(measured),
     )
-    return Problem(parameters, n_robot, function, residual)
+    return Problem(parameters, sizes[0], tuple(blocks), residual)
 
 
 def with_values(parameters: ParameterSet, values: np.ndarray) -> ParameterSet:

@@ -44,8 +44,15 @@ def validate(spec: SpecArg) -> None:
 
 
 @app.command()
-def schema() -> None:
+def schema(
+    markdown: Annotated[bool, typer.Option("--markdown", help="The spec reference as Markdown (docs/spec-reference.md) instead.")] = False,
+) -> None:
     """Print the JSON Schema of specs (for editor completion and checks)."""
+    if markdown:
+        from armcal.spec.reference import reference_markdown, shipped_specs
+
+        typer.echo(reference_markdown(shipped_specs()), nl=False)
+        return
     from armcal.spec.schema import spec_json_schema
 
     typer.echo(json.dumps(spec_json_schema(), indent=2))

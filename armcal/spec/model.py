@@ -17,9 +17,9 @@ class Spec(SpecModel):
     """A calibration spec, all quantities in mm and rad."""
 
     armcal: Literal[1] = Field(1, description="spec format version")
-    robot: Robot
-    device: Device
-    procedure: Procedure
+    robot: Robot = Field(description="the chain (convention: dh, mdh, s_model, six_parameter), its nominal parameters, base, tool and targets")
+    device: Device = Field(description="the measuring instrument (type: sonic_digitizer, ballbar, theodolite, tracker)")
+    procedure: Procedure = Field(description="how the calibration poses are planned (type: circle_point, shells, poses)")
     validation: Procedure | None = Field(None, description="procedure of the held-out validation set")
     data: Data | None = None
     simulate: Simulate | None = None

@@ -33,15 +33,15 @@ class CirclePoint(SpecModel):
 
 
 class Pairing(SpecModel):
-    pivot: str
-    sphere: str
+    pivot: str = Field(description="chuck the bar is seated in (from device.pivots)")
+    sphere: str = Field(description="sphere on the robot (from device.spheres)")
 
 
 class Shells(SpecModel):
     """Goswami's hemispherical shells: latitude/longitude points around each pivot."""
 
     type: Literal["shells"]
-    pairings: list[Pairing] = Field(min_length=1)
+    pairings: list[Pairing] = Field(min_length=1, description="pivot/sphere pairs, one shell each (Goswami Table I)")
     latitudes: list[Angle] = Field(min_length=1, description="elevation of each ring above the pivot")
     longitudes: int = Field(12, ge=1, description="points per ring")
     extension: str | None = Field(None, description="extension rod fitted (name from device.extension_rods)")
@@ -52,9 +52,9 @@ class Poses(SpecModel):
     """Poses from a CSV file of joint values, or ``count`` random poses within limits."""
 
     type: Literal["poses"]
-    file: str | None = None
-    count: int | None = Field(None, ge=1)
-    seed: int = 0
+    file: str | None = Field(None, description="CSV of joint values q1..qN, relative to the spec")
+    count: int | None = Field(None, ge=1, description="number of random poses within the joint limits (without file)")
+    seed: int = Field(0, description="seed of the random poses")
 
 
 Procedure = Annotated[Union[CirclePoint, Shells, Poses], Field(discriminator="type")]

@@ -41,8 +41,8 @@ def joint_kind(joint_type: str) -> str:
 class Units(SpecModel):
     """Default units of every quantity written as a plain number in this spec."""
 
-    length: Literal[tuple(units.LENGTH_UNITS)] = "mm"  # type: ignore[valid-type]
-    angle: Literal[tuple(units.ANGLE_UNITS)] = "deg"  # type: ignore[valid-type]
+    length: Literal[tuple(units.LENGTH_UNITS)] = Field("mm", description="unit of plain lengths")  # type: ignore[valid-type]
+    angle: Literal[tuple(units.ANGLE_UNITS)] = Field("deg", description="unit of plain angles")  # type: ignore[valid-type]
 
 
 class Offset(SpecModel):
@@ -65,9 +65,9 @@ class Target(Offset):
     """A point (or, with any of rx/ry/rz, a frame) fixed on a link: sparker, sphere, reflector."""
 
     link: int = Field(ge=0, description="0 = base link, i = the link moved by joint i")
-    rx: AngleParam | None = None
-    ry: AngleParam | None = None
-    rz: AngleParam | None = None
+    rx: AngleParam | None = Field(None, description="orientation (with ry, rz): the target is a frame, not a point")
+    ry: AngleParam | None = Field(None, description="see rx")
+    rz: AngleParam | None = Field(None, description="see rx")
 
     @property
     def is_frame(self) -> bool:
@@ -77,9 +77,9 @@ class Target(Offset):
 class JointBase(SpecModel):
     """What every joint has: a name, a type and limits in the joint's unit."""
 
-    name: str | None = None
-    type: JointType = "revolute"
-    limits: tuple[JointQuantity, JointQuantity]
+    name: str | None = Field(None, description="joint name (default j1, j2, ...)")
+    type: JointType = Field("revolute", description="revolute or prismatic")
+    limits: tuple[JointQuantity, JointQuantity] = Field(description="lower and upper joint limit, joint unit")
 
     @field_validator("limits", mode="before")
     @classmethod
@@ -142,13 +142,13 @@ class SixParameterLink(Offset):
 class RobotBase(SpecModel):
     """Identity, units, base and tool transforms and targets common to all conventions."""
 
-    name: str
-    serial: str
-    model: str | None = None
-    units: Units = Units()
-    base: Pose = Pose()
-    tool: Pose = Pose()
-    targets: dict[str, Target] = {}
+    name: str = Field(description="robot name, printed on the certificate")
+    serial: str = Field(description="serial number of this very robot, printed on the certificate")
+    model: str | None = Field(None, description="robot model (type designation)")
+    units: Units = Field(Units(), description="units of every plain number in this spec")
+    base: Pose = Field(Pose(), description="robot base frame in the mounting (world) frame; fixed at 0 unless given")
+    tool: Pose = Field(Pose(), description="tool frame on the last link; fixed at 0 unless given")
+    targets: dict[str, Target] = Field({}, description="named points or frames on links: sparkers, spheres, reflectors")
 
     @property
     def dof(self) -> int:

@@ -1,0 +1,68 @@
+"""Every code block in docs/ runs: sh blocks in bash, python blocks in one namespace per page, yaml
+blocks parse (and a whole spec, one with an `armcal:` key, validates). text blocks show output.
+
+The blocks run in a scratch copy of the project (examples/, specs/, docs/; ../shared beside it
+when it exists), with the project's armcal first on PATH. A page that needs the public UR10
+data says `<!-- needs: shared -->` and is skipped without it.
+"""
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import ROOT, SHARED_DATA
+from ruamel.yaml import YAML
+
+from armcal.spec import load_spec
+
+DOCS = sorted((ROOT / "docs").rglob("*.md"))
+BLOCK = re.compile(r"^```(\w*)[^\n]*\n(.*?)^```", re.M | re.S)
+LANGUAGES = {"sh", "python", "yaml", "text"}
+
+
+def code_blocks(page: Path) -> list[tuple[str, str, int]]:
+    """(language, code, line of the opening fence) of every fenced block of a page."""
+    text = page.read_text()
+    return [(m.group(1), m.group(2), text.count("\n", 0, m.start()) + 1) for m in BLOCK.finditer(text)]
+
+
+@pytest.fixture(scope="module")
+def scratch(tmp_path_factory):
+    root = tmp_path_factory.mktemp("docs") / "armcal"
+    for folder in ("examples", "specs", "docs"):
+        shutil.copytree(ROOT / folder, root / folder, ignore=shutil.ignore_patterns("out", "__pycache__"))
+    if SHARED_DATA.exists():
+        (root.parent / "shared").symlink_to(SHARED_DATA.parent)
+    return root
+
+
+def test_every_block_has_a_known_language():
+    for page in DOCS:
+        for language, _, line in code_blocks(page):
+            assert language in LANGUAGES, f"{page.relative_to(ROOT)}:{line}: block language {language!r}, use one of {sorted(LANGUAGES)}"
+
+
+@pytest.mark.parametrize("page", DOCS, ids=[str(p.relative_to(ROOT / "docs")) for p in DOCS])
+def test_code_blocks_run(page, scratch, monkeypatch):
+    if "<!-- needs: shared -->" in page.read_text() and not SHARED_DATA.exists():
+        pytest.skip("needs ../shared/data")
+    monkeypatch.chdir(scratch)
+    environment = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
+    namespace: dict = {"__name__": "__docs__"}
+    for language, code, line in code_blocks(page):
+        where = f"{page.relative_to(ROOT)}:{line}"
+        if language == "sh":
+            result = subprocess.run(["bash", "-euo", "pipefail", "-c", code], cwd=scratch, env=environment, capture_output=True, text=True, timeout=600)
+            assert result.returncode == 0, f"{where}: exit {result.returncode}\n{result.stdout[-2000:]}\n{result.stderr[-2000:]}"
+        elif language == "python":
+            exec(compile(code, where, "exec"), namespace)  # noqa: S102 - the project's own documentation
+        elif language == "yaml":
+            document = YAML(typ="safe").load(code)
+            if isinstance(document, dict) and "armcal" in document:
+                spec_path = scratch / "docs_block_spec.yaml"
+                spec_path.write_text(code)
+                load_spec(spec_path)

@@ -1,5 +1,6 @@
 """Every code block in docs/ runs: sh blocks in bash, python blocks in one namespace per page, yaml
 blocks parse (and a whole spec, one with an `armcal:` key, validates). text blocks show output.
+A yaml block opened with ```yaml file=PATH is also written to PATH, for the blocks after it.
 
 The blocks run in a scratch copy of the project (examples/, specs/, docs/; ../shared beside it
 when it exists), with the project's armcal first on PATH. A page that needs the public UR10
@@ -20,14 +21,18 @@ from ruamel.yaml import YAML
 from armcal.spec import load_spec
 
 DOCS = sorted((ROOT / "docs").rglob("*.md"))
-BLOCK = re.compile(r"^```(\w*)[^\n]*\n(.*?)^```", re.M | re.S)
+BLOCK = re.compile(r"^```(\w*)([^\n]*)\n(.*?)^```", re.M | re.S)
 LANGUAGES = {"sh", "python", "yaml", "text"}
 
 
-def code_blocks(page: Path) -> list[tuple[str, str, int]]:
-    """(language, code, line of the opening fence) of every fenced block of a page."""
+def code_blocks(page: Path) -> list[tuple[str, str, str, int]]:
+    """(language, file to write or "", code, line of the opening fence) of every fenced block of a page."""
     text = page.read_text()
-    return [(m.group(1), m.group(2), text.count("\n", 0, m.start()) + 1) for m in BLOCK.finditer(text)]
+    blocks = []
+    for m in BLOCK.finditer(text):
+        target = re.search(r"file=(\S+)", m.group(2))
+        blocks.append((m.group(1), target.group(1) if target else "", m.group(3), text.count("\n", 0, m.start()) + 1))
+    return blocks
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +47,7 @@ def scratch(tmp_path_factory):
 
 def test_every_block_has_a_known_language():
     for page in DOCS:
-        for language, _, line in code_blocks(page):
+        for language, _, _, line in code_blocks(page):
             assert language in LANGUAGES, f"{page.relative_to(ROOT)}:{line}: block language {language!r}, use one of {sorted(LANGUAGES)}"
 
 
@@ -53,7 +58,7 @@ def test_code_blocks_run(page, scratch, monkeypatch):
     monkeypatch.chdir(scratch)
     environment = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
     namespace: dict = {"__name__": "__docs__"}
-    for language, code, line in code_blocks(page):
+    for language, target, code, line in code_blocks(page):
         where = f"{page.relative_to(ROOT)}:{line}"
         if language == "sh":
             result = subprocess.run(["bash", "-euo", "pipefail", "-c", code], cwd=scratch, env=environment, capture_output=True, text=True, timeout=600)
@@ -62,7 +67,9 @@ def test_code_blocks_run(page, scratch, monkeypatch):
             exec(compile(code, where, "exec"), namespace)  # noqa: S102 - the project's own documentation
         elif language == "yaml":
             document = YAML(typ="safe").load(code)
-            if isinstance(document, dict) and "armcal" in document:
-                spec_path = scratch / "docs_block_spec.yaml"
+            spec_path = scratch / (target or "docs_block_spec.yaml")
+            if target or (isinstance(document, dict) and "armcal" in document):
+                spec_path.parent.mkdir(parents=True, exist_ok=True)
                 spec_path.write_text(code)
+            if isinstance(document, dict) and "armcal" in document:
                 load_spec(spec_path)

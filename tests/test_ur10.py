@@ -34,7 +34,7 @@ def test_fit_series_c_validate_on_series_b(tmp_path):
     assert results.residuals.calibration.before.rms > 2.0  # mm: the nominal UR10, after registration
     assert results.residuals.calibration.after.rms < 0.5
     assert results.improvement_factor.validation > 2.5
-    assert results.diagnosis.rounds  # the diagnosis ran; what it found is in docs/ur10.md
+    assert results.diagnosis.rounds  # the diagnosis ran; what it found is in docs/tutorials/ur10.md
     assert results.diagnosis.unexplained  # the residuals stay far above a 0.03 mm tracker noise
 
 

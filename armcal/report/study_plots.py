@@ -8,6 +8,7 @@ the spread of every index under both controllers at each point.
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.ticker import NullFormatter
 
 from armcal.evaluate.grid import index_kind
 from armcal.report.plots import plt, svg
@@ -37,6 +38,8 @@ def radial_trend(summary: dict) -> str:
     axis.plot(values, guide, "k--", lw=1, label=f"slope {found['expected_slope']:g} ({found['source']})")
     axis.set_xscale("log")
     axis.set_yscale("log")
+    axis.set_xticks(values, [f"{v:g}" for v in values], minor=False)
+    axis.xaxis.set_minor_formatter(NullFormatter())
     axis.set_xlabel(f"{sweep['variable']} ({sweep['unit']})")
     axis.set_ylabel(f"std of radial error ({unit}), {found['controller']} control")
     axis.set_title(f"median slope over 34 indices {found['median_slope']:.2f}", fontsize=8)

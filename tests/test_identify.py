@@ -2,12 +2,13 @@
 
 import numpy as np
 import pytest
-from conftest import SPECS
+from conftest import ROOT, SPECS
 from identify_helpers import measure, restricted, setup, truth
 
 from armcal.identify.fit import fit
 from armcal.identify.identifiability import analyse
 from armcal.identify.problem import build_problem
+from armcal.spec import load_spec
 from armcal.spec.sections import Fit
 
 FEWER_SHELL_POINTS = [("  longitudes: 23", "  longitudes: 10"), ("  longitudes: 28", "  longitudes: 10")]
@@ -126,3 +127,24 @@ def test_compiled_functions_are_cached_and_equal_the_interpreted_ones(tmp_path, 
         r1, J1 = first.evaluate(theta)
         r2, J2 = other.evaluate(theta)
         assert np.abs(r1 - r2).max() < 1e-12 and np.abs(J1 - J2).max() < 1e-9
+
+
+def test_the_tracker_start_keeps_the_base_components_a_spec_holds(tmp_path):
+    """The registered start moves the free tracker-to-base components only (held ones keep their values)."""
+    from armcal.dataio.reader import read_measurements
+    from armcal.devices import device_model
+    from armcal.identify.problem import build_problem
+    from armcal.identify.start import starting_values
+    from armcal.kinematics.compiler import compile_robot
+
+    folder = ROOT / "examples" / "hidden_harmonic"
+    text = (folder / "spec.yaml").read_text().replace("ry: 0.0, rx: 0.0}", "ry: {value: 0.01, vary: false}, rx: {value: 0.0, vary: false}}")
+    (tmp_path / "spec.yaml").write_text(text)
+    spec = load_spec(tmp_path / "spec.yaml").spec
+    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    data = read_measurements(folder / "calibration.csv", spec)
+    problem = build_problem(kinematics, device, data)
+    theta = starting_values(problem, kinematics, device, data)
+    value = dict(zip(problem.parameters.names, theta))
+    assert value["robot_base.ry"] == pytest.approx(np.radians(0.01)) and value["robot_base.rx"] == 0.0
+    assert value["robot_base.x"] != 300.0  # the free components are registered from the data

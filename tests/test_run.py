@@ -101,6 +101,13 @@ def test_stones_feature_method_beside_least_squares(tmp_path):
     least_squares_rms = block["residuals"]["least_squares"]["rms"]
     assert least_squares_rms <= features_rms < 1.5 * least_squares_rms  # features come close; the full fit does better
     assert results.residuals.calibration.after.rms == pytest.approx(features_rms)
+    # the last frame turns with joint 6 as the design's does: sparker 6 where Table F-1 puts it,
+    # and signature-based control keeps the tool's orientation (it was off by 180 deg about z6)
+    values = {p.name: p.value for p in results.parameters}
+    assert [values[f"sparker6.{c}"] for c in "xyz"] == pytest.approx([33.3, 0.0, 10.225], abs=0.1)
+    for row in results.evaluation["grid_task"]["indices"]:
+        if row["index"].endswith(" orientation") and "relative" not in row["index"]:
+            assert row["calibrated"] < row["design"] / 3, row
 
 
 def test_grid_task_design_versus_calibrated_control(tmp_path):
@@ -157,6 +164,23 @@ def test_the_undeclared_effect_example_is_diagnosed_through_run(tmp_path):
     assert not diagnosis.unexplained
 
 
+def test_a_declared_effect_without_values_is_identified_from_zero(tmp_path):
+    """An effect declared with its parameters left out starts at 0 and is fitted (simulated: 0.02, 0.008 deg)."""
+    import shutil
+
+    folder = ROOT / "examples" / "hidden_harmonic"
+    for name in ("calibration.csv", "validation.csv", "truth.json"):
+        shutil.copy(folder / name, tmp_path / name)
+    text = (folder / "spec.yaml").read_text() + "effects:\n  - {type: gear_harmonic, joint: 2, order: 1}\n"
+    (tmp_path / "spec.yaml").write_text(text)
+    results = run(tmp_path / "spec.yaml", tmp_path / "out", pdf=False).results
+    values = {p.name: p for p in results.parameters}
+    for field, truth in (("sin", 0.02), ("cos", 0.008)):
+        parameter = values[f"gear_harmonic.j2.h1.{field}"]
+        assert parameter.free and abs(parameter.value - truth) < 3 * parameter.std
+    assert results.residuals.validation.after.rms < 1.15 * 0.025
+
+
 def test_evidence_and_plots(tmp_path):
     results = run(ROOT / "examples" / "hidden_harmonic" / "spec.yaml", tmp_path).results
     evidence = results.diagnosis.evidence
@@ -169,3 +193,17 @@ def test_evidence_and_plots(tmp_path):
         text = (tmp_path / name).read_text()
         assert text.lstrip().startswith("<?xml") and "<svg" in text
     assert {"residual_histogram.svg", "residual_vs_joint.svg", "residual_vs_torque.svg"} <= set(results.diagnosis.plots)
+
+
+def test_a_truth_of_another_robot_model_skips_the_tasks(tmp_path):
+    """truth.json beside the data but from a spec with other parameters: the tasks say why they did not run."""
+    import shutil
+
+    folder = ROOT / "examples" / "hidden_harmonic"
+    for name in ("calibration.csv", "validation.csv", "truth.json"):
+        shutil.copy(folder / name, tmp_path / name)
+    text = (folder / "spec.yaml").read_text()
+    text = text.replace("    reflector: {link: 6, x: 5.0, y: 0.0, z: 10.0}\n", "    reflector: {link: 6, x: 5.0, y: 0.0, z: 10.0}\n    spare: {link: 3, x: 1.0}\n")
+    (tmp_path / "spec.yaml").write_text(text)
+    results = run(tmp_path / "spec.yaml", tmp_path / "out", pdf=False).results
+    assert "another model" in results.evaluation["grid_task"]["skipped"]

@@ -124,3 +124,36 @@ def test_an_iso_task_needs_its_cube(tmp_path):
     path.write_text(text)
     [(_, _, field, message)] = _problems(path)
     assert field == "report.tasks" and "needs report.iso9283_cube" in message
+
+
+@pytest.mark.parametrize(
+    "addition, field, message",
+    [
+        ("effects:\n  - {type: ballbar_length}\n", "effects[0].type", "ballbar_length needs a ballbar device, not theodolite"),
+        ("effects:\n  - {type: sensor_scale}\n", "effects[0].type", "sensor_scale needs a sonic_digitizer or tracker device, not theodolite"),
+        (
+            "effects:\n  - {type: thermal_drift}\n  - {type: thermal_drift, source: time}\n",
+            "effects[1]",
+            "this thermal_drift effect is already declared as entry 1",
+        ),
+    ],
+)
+def test_effects_must_fit_the_device_and_be_declared_once(tmp_path, addition, field, message):
+    path = tmp_path / "effects.yaml"
+    path.write_text((SPECS / "puma560_theodolite.yaml").read_text() + addition)
+    assert [(f, m) for _, _, f, m in _problems(path)] == [(field, message)]
+
+
+def test_a_theodolite_cannot_run_circle_point_sweeps(tmp_path):
+    text = (SPECS / "puma560_theodolite.yaml").read_text()
+    text = text.replace("procedure:\n  type: poses\n  count: 150\n  seed: 3\n", "procedure:\n  type: circle_point\n  signature: [0, -90, 180, 0, 0, 0]\n  targets: [a, b, c, d, e, f]\n", 1)
+    path = tmp_path / "circle.yaml"
+    path.write_text(text)
+    assert any(f == "procedure.type" and "sonic_digitizer, tracker" in m for _, _, f, m in _problems(path))
+
+
+def test_tracker_orientation_needs_its_noise(tmp_path):
+    text = (SPECS / "ur10.yaml").read_text().replace("  orientation_noise: 0.002\n", "")
+    path = tmp_path / "orientation.yaml"
+    path.write_text(text)
+    assert [(f, m) for _, _, f, m in _problems(path)] == [("device.orientation_noise", "a tracker that measures orientation needs orientation_noise (its sigma)")]

@@ -137,6 +137,8 @@ class SonicModel(DeviceModel):
             readings = dict(zip("xyz", triangulate(*(ranges[m] for m in PRIMARY), *w)))
         else:
             readings.update({f"s_{m}": value for m, value in ranges.items()})
+            for m in self.microphones:  # a microphone without a column (s_D is optional): no readings
+                readings.setdefault(f"s_{m}", np.full(len(measurements.q), np.nan))
         return replace(measurements, readings=readings)
 
     def measurable(self, key: Key, readings: np.ndarray) -> np.ndarray:
@@ -144,7 +146,7 @@ class SonicModel(DeviceModel):
         if self.mode != "ranges":
             return np.ones(len(readings), dtype=bool)
         low, high = self.spec.range_limits
-        return np.all((readings >= low) & (readings <= high), axis=1)
+        return np.all(((readings >= low) & (readings <= high)) | np.isnan(readings), axis=1)
 
     def visible(self, key: Key, poses: np.ndarray, pd: np.ndarray | None = None) -> np.ndarray:
         """In front of the microphone plane (z > 0 in the sensor frame) and within the range limits."""

@@ -53,5 +53,5 @@ class TrackerModel(DeviceModel):
         readings = np.atleast_2d(readings)
         sigma = np.full(readings.shape, self.spec.noise)
         if self.spec.orientation:
-            sigma[:, 3:] = self.spec.orientation_noise or self.spec.noise / 1000.0
+            sigma[:, 3:] = self.spec.orientation_noise
         return sigma

@@ -37,7 +37,8 @@ class EffectSpec:
     reference_temperature: float = 20.0
     masses: tuple[LumpedMass, ...] = ()
     values: dict[str, float] = field(default_factory=dict)  # nominal parameter values, 0 by default
-    free: bool = True
+    free: bool = True  # False: every parameter held (a diagnosis candidate not yet accepted)
+    held: frozenset[str] = frozenset()  # fields the spec holds at their value (vary: false)
 
     @property
     def id(self) -> str:
@@ -67,21 +68,26 @@ class EffectSpec:
         }[self.type]
 
     def parameters(self) -> list[ParameterInfo]:
-        return [ParameterInfo(f"{self.id}.{f}", kind, self.values.get(f, 0.0), self.free, None, None) for f, kind in self.fields()]
+        return [
+            ParameterInfo(f"{self.id}.{f}", kind, self.values.get(f, 0.0), self.free and f not in self.held, None, None)
+            for f, kind in self.fields()
+        ]
 
 
 def from_spec(effect) -> EffectSpec:
     """The internal form of a spec effect (values already in internal units).
 
-    Parameters are spec Parameters ({value, vary}) except joint_compliance's
-    compliance and thermal_drift's coefficient, plain numbers with the effect's ``vary``.
+    Parameters are spec Parameters ({value, vary}; left out: free from 0) except
+    joint_compliance's compliance and thermal_drift's coefficient, plain numbers
+    with the effect's ``vary``.
     """
     shape = EffectSpec(effect.type, source=getattr(effect, "source", "temperature"))
-    values, free = {}, True
+    values, held = {}, set()
     for name, _ in shape.fields():
         parameter = getattr(effect, name)
         values[name] = parameter.value if hasattr(parameter, "value") else float(parameter)
-        free = free and (parameter.vary if hasattr(parameter, "vary") else effect.vary)
+        if not (parameter.vary if hasattr(parameter, "vary") else effect.vary):
+            held.add(name)
     masses = tuple(LumpedMass(m.link, m.mass, (m.x, m.y, m.z)) for m in getattr(effect, "masses", ()))
     return EffectSpec(
         type=effect.type,
@@ -94,7 +100,7 @@ def from_spec(effect) -> EffectSpec:
         reference_temperature=getattr(effect, "reference_temperature", 20.0),
         masses=masses,
         values=values,
-        free=free,
+        held=frozenset(held),
     )
 
 

@@ -174,6 +174,9 @@ def evaluation_tasks(spec, kinematics, calibrated, truth: dict | None) -> dict:
     """The tasks the spec's report asks for, when the data's truth is known (simulation)."""
     if truth is None:
         return {}
+    if set(truth.get("parameters", {})) != set(kinematics.parameters.names):
+        why = "the data's truth.json describes a robot of another model than this spec's (simulated from another spec)"
+        return {task: {"skipped": why} for task in spec.report.tasks}
     from armcal.simulate.truth import TrueRobot
 
     theta = calibrated.identified.theta[: calibrated.problem.n_robot]

@@ -65,7 +65,8 @@ def feature_parameters(spec: Spec, points: Measurements, parameters: ParameterSe
         _check_sweep(points.source, i, xyz, q, robot.joints[i - 1].type)
     reference = [DHRow(j.theta.value, j.d.value, j.a.value, j.alpha.value) for j in robot.joints]
     joint_types = tuple(j.type for j in robot.joints)
-    found = identify(sweeps, joint_types, np.asarray(procedure.signature), reference)
+    last = robot.targets[procedure.targets[-1]]
+    found = identify(sweeps, joint_types, np.asarray(procedure.signature), reference, last_azimuth=np.arctan2(last.y.value, last.x.value))
     pseudo = found.pseudo_dh
     theta = parameters.nominal.copy()
     set_value = lambda name, value: theta.__setitem__(parameters.index(name), value)  # noqa: E731

@@ -146,12 +146,14 @@ def joint_features(joint: int, revolute: bool, points: np.ndarray, q: np.ndarray
     )
 
 
-def frame(feature: JointFeatures) -> np.ndarray:
-    """S-Model frame on a joint's axis (4.49): z the axis, x towards the first target position (4.50)."""
+def frame(feature: JointFeatures, turn: float = 0.0) -> np.ndarray:
+    """S-Model frame on a joint's axis (4.49): z the axis, x towards the first target position (4.50)
+    turned by ``turn`` about the axis: towards where the target is at the signature configuration."""
     z = feature.axis
     if feature.revolute:
         x = feature.first - feature.centre
         x -= (x @ z) * z
+        x = x * np.cos(turn) + np.cross(z, x) * np.sin(turn)
     else:
         x = _frame_with_z(z)[0]
     x /= np.linalg.norm(x)
@@ -172,11 +174,20 @@ def identify(
     q_signature: np.ndarray,
     reference: list[DHRow] | None = None,
     plane: str = "eigenvector",
+    last_azimuth: float = 0.0,
 ) -> FeatureIdentification:
-    """From each joint's sweep (target positions (m, 3) in the sensor frame, joint values (m,)), Stone 4.3."""
+    """From each joint's sweep (target positions (m, 3) in the sensor frame, joint values (m,)), Stone 4.3.
+
+    ``last_azimuth``: the design's angle of the last target about joint n's axis, atan2(y, x) in
+    link n's frame; the last frame's x axis is set so that the target keeps it.
+    """
     features = tuple(
         joint_features(i + 1, kind == "revolute", points, q, plane)
         for i, ((points, q), kind) in enumerate(zip(sweeps, joint_types))
     )
-    frames = [frame(f) for f in features]  # S_0 .. S_{n-1} (4.48)
+    # S_0 .. S_{n-1} (4.48); x towards the target at the signature, so that the last frame (whose
+    # x no later axis fixes) turns with joint n as the design's does: its zero is the signature's
+    turns = [q_signature[i] - q[0] for i, (_, q) in enumerate(sweeps)]
+    turns[-1] -= last_azimuth
+    frames = [frame(f, turn) for f, turn in zip(features, turns)]
     return FeatureIdentification(features, pseudo_dh_from_frames(frames, joint_types, q_signature, reference))

@@ -3,7 +3,8 @@
 A laser tracker can stand anywhere: its transform to the robot base is unknown
 by metres and tens of degrees, far outside what Levenberg-Marquardt recovers
 from zero. When that transform is free, it starts at the rigid registration
-(Kabsch / SVD) of the nominal model's target positions onto the measured ones.
+(Kabsch / SVD) of the nominal model's target positions onto the measured ones;
+components the spec holds (vary: false) keep their values.
 """
 
 from __future__ import annotations
@@ -43,5 +44,6 @@ def starting_values(problem: Problem, kinematics: KinematicModel, device: Device
         measured.append(np.stack([data.readings[c][rows] for c in "xyz"], axis=1))
     registered = rigid_registration(np.concatenate(nominal), np.concatenate(measured))
     for field, value in zip(POSE, pose_from_matrix(registered)):
-        theta[names.index(f"robot_base.{field}")] = value
+        if f"robot_base.{field}" in free:  # a component the spec holds keeps its value
+            theta[names.index(f"robot_base.{field}")] = value
     return theta

@@ -15,6 +15,10 @@ from armcal.spec.robot import SixParameterRobot
 from armcal.spec.sections import PivotOffset, RangeBias
 
 Loc = tuple[str | int, ...]
+DEVICES_OF_EFFECT = {  # instrument-side effects and the devices they act on
+    "sensor_scale": ("sonic_digitizer", "tracker"),  # scales measured lengths
+    "ballbar_length": ("ballbar",),
+}
 Problem = tuple[Loc, str]
 
 
@@ -59,6 +63,8 @@ def _device(spec: Spec) -> Iterator[Problem]:
         yield from _target_refs(spec, device.spheres, ("device", "spheres"), "sphere")
     elif isinstance(device, (Theodolite, Tracker)):
         yield from _target_refs(spec, device.targets, ("device", "targets"), "target")
+        if isinstance(device, Tracker) and device.orientation and device.orientation_noise is None:
+            yield ("device", "orientation_noise"), "a tracker that measures orientation needs orientation_noise (its sigma)"
     elif isinstance(device, SonicDigitizer):
         for i, rod in enumerate(device.calibration_rods):
             if rod.microphone not in device.microphones:
@@ -84,8 +90,8 @@ def _procedures(spec: Spec) -> Iterator[Problem]:
 
 def _circle_point(spec: Spec, procedure: CirclePoint, loc: Loc) -> Iterator[Problem]:
     robot = spec.robot
-    if not isinstance(spec.device, SonicDigitizer | Tracker | Theodolite):
-        yield (*loc, "type"), f"circle_point needs a device that measures target positions, not {spec.device.type}"
+    if not isinstance(spec.device, SonicDigitizer | Tracker):
+        yield (*loc, "type"), f"circle_point needs a device that measures target positions (sonic_digitizer, tracker), not {spec.device.type}"
     if len(procedure.signature) != robot.dof:
         yield (*loc, "signature"), f"needs {robot.dof} joint values, got {len(procedure.signature)}"
     else:
@@ -139,7 +145,15 @@ def _effects(spec: Spec) -> Iterator[Problem]:
         sections.append(("simulate", "effects"))
     for loc in sections:
         effects = spec.effects if loc == ("effects",) else spec.simulate.effects  # type: ignore[union-attr]
+        seen: dict[tuple, int] = {}
         for i, effect in enumerate(effects):
+            what = tuple(getattr(effect, f, None) for f in ("type", "joint", "order", "ratio", "microphone", "pivot"))
+            if what in seen:
+                yield (*loc, i), f"this {effect.type} effect is already declared as entry {seen[what] + 1}"
+            seen.setdefault(what, i)
+            needed = DEVICES_OF_EFFECT.get(effect.type)
+            if needed and spec.device.type not in needed:
+                yield (*loc, i, "type"), f"{effect.type} needs a {' or '.join(needed)} device, not {spec.device.type}"
             joint = getattr(effect, "joint", None)
             if joint is not None and joint > spec.robot.dof:
                 yield (*loc, i, "joint"), f"joint {joint} does not exist: this robot has joints 1..{spec.robot.dof}"

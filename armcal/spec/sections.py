@@ -7,7 +7,7 @@ from typing import Annotated, Literal, Union
 
 from pydantic import Field
 
-from armcal.spec.base import Angle, AngleParam, Length, LengthParam, Number, ScaleParam, SpecModel, fixed
+from armcal.spec.base import Angle, AngleParam, Length, LengthParam, Number, Parameter, ScaleParam, SpecModel
 from armcal.spec.robot import Offset
 
 DEG = math.pi / 180.0
@@ -45,7 +45,7 @@ class EncoderScale(JointEffect):
     """theta = q (1 + scale): a joint's encoder gain error."""
 
     type: Literal["encoder_scale"]
-    scale: ScaleParam = fixed(0.0)
+    scale: ScaleParam = Parameter(value=0.0)
 
 
 class GearHarmonic(JointEffect):
@@ -54,8 +54,8 @@ class GearHarmonic(JointEffect):
     type: Literal["gear_harmonic"]
     order: int = Field(ge=1, description="harmonic order: cycles per joint (or motor) revolution")
     ratio: float = Field(1.0, gt=0.0, description="gear ratio for motor-side harmonics (1 = joint side)")
-    sin: AngleParam = fixed(0.0)
-    cos: AngleParam = fixed(0.0)
+    sin: AngleParam = Parameter(value=0.0)
+    cos: AngleParam = Parameter(value=0.0)
 
 
 class LinkMass(SpecModel):
@@ -81,7 +81,7 @@ class Backlash(JointEffect):
     """Joint error = half_width x approach direction (needs dir columns)."""
 
     type: Literal["backlash"]
-    half_width: AngleParam = fixed(0.0)
+    half_width: AngleParam = Parameter(value=0.0)
 
 
 class ThermalDrift(SpecModel):
@@ -98,7 +98,7 @@ class SensorScale(SpecModel):
     """Instrument scale error (speed of sound for the sonic digitizer)."""
 
     type: Literal["sensor_scale"]
-    scale: ScaleParam = fixed(0.0)
+    scale: ScaleParam = Parameter(value=0.0)
 
 
 class RangeBias(SpecModel):
@@ -106,20 +106,23 @@ class RangeBias(SpecModel):
 
     type: Literal["range_bias"]
     microphone: str = Field(description="microphone whose range is biased (from device.microphones)")
-    bias: LengthParam = fixed(0.0)
+    bias: LengthParam = Parameter(value=0.0)
 
 
 class BallbarLength(SpecModel):
     """An offset of the ball-bar's length."""
 
     type: Literal["ballbar_length"]
-    offset: LengthParam = fixed(0.0)
+    offset: LengthParam = Parameter(value=0.0)
 
 
 class PivotOffset(Offset):
     """A displacement of one ball-bar pivot."""
 
     type: Literal["pivot_offset"]
+    x: LengthParam = Parameter(value=0.0)
+    y: LengthParam = Parameter(value=0.0)
+    z: LengthParam = Parameter(value=0.0)
     pivot: str = Field(description="the pivot that moved (from device.pivots)")
 
 

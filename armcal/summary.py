@@ -112,7 +112,7 @@ def study_summary(study) -> str:
         t = s["trend"]
         lines.append(
             f"  trend of the {t['controller']} indices' std: slope {t['median_slope']:.2f} (median of 34; lengths {t['length_slope']:.2f},"
-            f" angles {t['angle_slope']:.2f}, radial {t['radial_slope']:.2f});"
+            f" orientations {t['orientation_slope']:.2f}, radial {t['radial_slope']:.2f});"
             f" {t['source']} found {t['expected_slope']:g}"
         )
     lines.append(f"  wrote {', '.join(p.name for p in study.files)} in {study.out_dir}")

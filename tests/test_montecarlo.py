@@ -65,11 +65,11 @@ def test_encoder_errors_drive_the_design_controllers_spread_linearly(study):
 
 
 def test_a_larger_target_radius_sharpens_the_orientation_indices(study):
-    """(6.12): plane-of-rotation accuracy ~ 1/R, so the angle indices fall as 1/R; the lengths hang on the
-    centres of rotation (6.13), which R does not change. Stone's 1/R^2 (7.4.5) is not reproduced here."""
+    """(6.12): plane-of-rotation accuracy ~ 1/R, so the orientation indices fall as 1/R; the lengths hang on
+    the centres of rotation (6.13), which R does not change. Stone's 1/R^2 (7.4.5) is not reproduced here."""
     trend = study("target_radius=30,50").summary["trend"]
-    assert trend["angle_slope"] == pytest.approx(-1.0, abs=0.3)
-    assert trend["length_slope"] > trend["angle_slope"] + 0.4
+    assert trend["orientation_slope"] == pytest.approx(-1.0, abs=0.3)
+    assert trend["length_slope"] > trend["orientation_slope"] + 0.4
 
 
 def test_calibrated_control_beats_design_control_on_every_position_index(study):

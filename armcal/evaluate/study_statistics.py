@@ -4,8 +4,9 @@ Stone reports the mean and standard deviation of each of the 34 indices over
 the robots (7.2.1) and reads the trends of the standard deviations off his
 plots (7.4.1-7.4.5). Here a trend is the least-squares slope of log(std) on
 log(value) per index; its median over the indices (over the 24 length and the
-10 angle indices apart, and the mean slope of the four vertex radial errors, his
-Figures 7-4 to 7-8) is compared with his finding.
+10 angle indices apart, over the 7 orientation indices - the angles less the three
+perpendicularities, which are made of positions - and the mean slope of the four
+vertex radial errors, his Figures 7-4 to 7-8) is compared with his finding.
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ def trend(sweep: Sweep, points: list[list[dict]]) -> dict:
         "median_slope": float(np.median(list(slopes.values()))),
         "length_slope": float(np.median([v for name, v in slopes.items() if index_kind(name) == "length"])),
         "angle_slope": float(np.median([v for name, v in slopes.items() if index_kind(name) == "angle"])),
+        "orientation_slope": float(np.median([v for name, v in slopes.items() if "orientation" in name])),
         "radial_slope": float(np.mean([slopes[name] for name in RADIAL if name in slopes])),
         "slopes": slopes,
     }

@@ -95,3 +95,16 @@ def test_cli_simulate_writes_and_reports(tmp_path):
 def test_decimal_commas_are_recognised_in_a_comma_file(tmp_path, spec):
     [(line, _, _, message)] = _problems(tmp_path, spec, HEADER + "1,reflector,10,-45,90,0,20,0,250,5,10,25,80,125\n")
     assert line == 2 and "decimal commas?" in message
+
+
+def test_sonic_targets_may_be_given_as_link_numbers(tmp_path):
+    """The data contract's sonic `target` is the link that carries the sparker (1..N); names work too."""
+    folder = ROOT / "examples" / "puma560_sonic"
+    spec = load_spec(folder / "spec.yaml").spec
+    by_name = read_measurements(folder / "calibration.csv", spec)
+    lines = (folder / "calibration.csv").read_text().splitlines()
+    column = lines[0].split(",").index("target")
+    renamed = [lines[0]] + [",".join(v.replace("sparker", "") if i == column else v for i, v in enumerate(line.split(","))) for line in lines[1:]]
+    (tmp_path / "links.csv").write_text("\n".join(renamed) + "\n")
+    by_link = read_measurements(tmp_path / "links.csv", spec)
+    assert by_link.keys == by_name.keys and by_link.keys[0] == ("sparker6",) and renamed[1].split(",")[column] == "6"

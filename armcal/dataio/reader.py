@@ -94,10 +94,21 @@ def _valid_names(spec: Spec) -> dict[str, set[str]]:
     return names
 
 
+def _link_numbers(spec: Spec) -> dict[str, str]:
+    """Sonic data may name a sparker by the link that carries it (the contract's target 1..N)."""
+    if spec.device.type != "sonic_digitizer":
+        return {}
+    on_link: dict[int, list[str]] = {}
+    for name, target in spec.robot.targets.items():
+        on_link.setdefault(target.link, []).append(name)
+    return {str(link): names[0] for link, names in on_link.items() if len(names) == 1 and link >= 1}
+
+
 def _parse(path: Path, spec: Spec, cols: Layout, header: list[str], rows: list[list[str]], problems: _Problems):
     """Numeric columns (internal units, NaN if empty) and text columns of every row, checked."""
     index = {name: i for i, name in enumerate(header)}
     names = _valid_names(spec)
+    links = _link_numbers(spec)
     values = {c: np.full(len(rows), np.nan) for c, k in cols.known.items() if k != "text" and c in index}
     text = {c: [""] * len(rows) for c, k in cols.known.items() if k == "text" and c in index}
     for r, row in enumerate(rows):
@@ -112,6 +123,7 @@ def _parse(path: Path, spec: Spec, cols: Layout, header: list[str], rows: list[l
                 continue
             raw = row[index[column]].strip()
             if kind == "text":
+                raw = links.get(raw, raw) if column == "target" else raw
                 text[column][r] = raw
                 if column in names and raw not in names[column]:
                     allowed = ", ".join(sorted(n for n in names[column] if n)) or "none"

@@ -13,21 +13,21 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from armcal.errors import UserError
+from armcal.fileio import output_folder
 from armcal.parallel import run_tasks
+from armcal.pipeline import default_out_dir, run
 
 
 @dataclass(frozen=True)
 class Job:
     spec: Path
-    out_dir: Path | None  # None: the spec's default folder
+    out_dir: Path
     force: bool
     pdf: bool
 
 
 def run_job(job: Job) -> dict:
     """One spec through the pipeline (a worker's task); its outcome as plain data."""
-    from armcal.pipeline import run
-
     try:
         outcome = run(job.spec, job.out_dir, job.force, job.pdf)
     except UserError as exc:
@@ -47,18 +47,22 @@ def run_job(job: Job) -> dict:
 
 
 def jobs(specs: list[Path], out_dir: Path | None, force: bool, pdf: bool) -> list[Job]:
-    """One job per spec; with ``out_dir`` each writes to out_dir/<spec stem> (or <folder>-<stem> where stems repeat)."""
+    """One job per spec, paths absolute (workers may run elsewhere); with ``out_dir`` each writes to
+    out_dir/<spec stem> (or <folder>-<stem> where stems repeat), else to the spec's default folder."""
     missing = [spec for spec in specs if not Path(spec).is_file()]
     if missing:
         raise UserError(f"{missing[0]}: no such spec file")
+    paths = [Path(spec).resolve() for spec in specs]
     if out_dir is None:
-        return [Job(Path(spec), None, force, pdf) for spec in specs]
-    stems = Counter(Path(spec).stem for spec in specs)
-    names = [Path(s).stem if stems[Path(s).stem] == 1 else f"{Path(s).resolve().parent.name}-{Path(s).stem}" for s in specs]
-    repeated = [name for name, count in Counter(names).items() if count > 1]
+        folders = [default_out_dir(path) for path in paths]
+    else:
+        stems = Counter(path.stem for path in paths)
+        folders = [Path(out_dir) / (p.stem if stems[p.stem] == 1 else f"{p.parent.name}-{p.stem}") for p in paths]
+    folders = [output_folder(folder.resolve()) for folder in folders]
+    repeated = [folder for folder, count in Counter(folders).items() if count > 1]
     if repeated:
-        raise UserError(f"two specs would write to {Path(out_dir) / repeated[0]}; give each spec a distinct name")
-    return [Job(Path(spec), Path(out_dir) / name, force, pdf) for spec, name in zip(specs, names)]
+        raise UserError(f"two specs would write to {repeated[0]}; give each spec its own name or folder")
+    return [Job(path, folder, force, pdf) for path, folder in zip(paths, folders)]
 
 
 def batch(

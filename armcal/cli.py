@@ -137,7 +137,7 @@ def montecarlo(
         list[str] | None,
         typer.Option("--sweep", help="Vary one input: noise_factor=1,2,5,10 | points_per_joint=20,40,60,80,100 | target_radius=30,40,50 | sigma_e=0.1,0.3,0.5 (spec units)."),
     ] = None,
-    seed: Annotated[int | None, typer.Option("--seed", help="Seed of robot 0..N-1 (default: the spec's simulate.seed).")] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the study's robots (default: the spec's simulate.seed).", min=0)] = None,
     out: Annotated[Path | None, typer.Option("--out", help="Output folder (default: out/<spec stem>/montecarlo/ beside the spec).")] = None,
     workers: WorkersOption = None,
     scheduler: SchedulerOption = None,

@@ -41,3 +41,6 @@ class SpecError(UserError):
         self.issues = issues
         count = f"{len(issues)} problem{'s' if len(issues) != 1 else ''}"
         super().__init__(f"{count} found:\n" + "\n".join(f"  {i}" for i in issues))
+
+    def __reduce__(self):  # crosses process boundaries (worker pools) whole
+        return (SpecError, (self.issues,))

@@ -6,6 +6,17 @@ import os
 import tempfile
 from pathlib import Path
 
+from armcal.errors import UserError
+
+
+def output_folder(path: Path) -> Path:
+    """``path``, checked as a folder to write into: a user error if a file is in the way."""
+    path = Path(path)
+    blocked = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()), None)
+    if blocked is not None:
+        raise UserError(f"{blocked} is a file; the output needs a folder there")
+    return path
+
 
 def write_text_atomic(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` so that readers see the old file or the new one, never half of it."""

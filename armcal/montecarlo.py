@@ -21,18 +21,20 @@ import numpy as np
 
 from armcal import __version__
 from armcal.errors import UserError
+from armcal.fileio import output_folder
 from armcal.evaluate.grid import grid_indices, index_kind
 from armcal.evaluate.montecarlo import ChunkResult, check_points, chunks, run_chunk
 from armcal.evaluate.study_statistics import index_statistics, trend
-from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, variant
+from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, spec_unit, variant
 from armcal.parallel import default_workers, run_tasks
 from armcal.procedures.tasks import grid_task
 from armcal.report.render import write_files
-from armcal.report.study_plots import study_plots
+from armcal.report.study_plots import SPREAD, TREND, study_plots
 from armcal.spec import load_spec
 from armcal.units import from_internal
 
 INDEX_NAMES = list(grid_indices(grid_task(), grid_task()))
+STUDY_PLOTS = {SPREAD, TREND}
 
 
 @dataclass(frozen=True)
@@ -57,8 +59,10 @@ def montecarlo(
         raise UserError(f"--runs {runs}: a study needs at least 2 robots for a standard deviation")
     if len(sweeps) > 1:
         raise UserError("give at most one --sweep: Stone varies one input at a time")
+    started = time.perf_counter()
     loaded = load_spec(spec_path)
-    spec, folder = loaded.spec, loaded.path.parent
+    spec, folder = loaded.spec, loaded.path.parent.resolve()  # absolute: workers may run elsewhere
+    out_dir = output_folder(out_dir if out_dir is not None else folder / "out" / loaded.path.stem / "montecarlo")
     sweep = parse_sweep(sweeps[0], spec) if sweeps else None
     points = [variant(spec, sweep.variable, value) for value in sweep.values] if sweep else [spec]
     seed = (spec.simulate.seed if spec.simulate else 0) if seed is None else seed
@@ -72,7 +76,6 @@ def montecarlo(
         if progress:
             progress(done[0], total)
 
-    started = time.perf_counter()
     results = run_tasks(run_chunk, chunks(points, folder, runs, seed, size), scheduler, workers, robots_done)
     elapsed = time.perf_counter() - started
     design, calibrated, converged = _collect(results, len(points), runs)
@@ -84,7 +87,7 @@ def montecarlo(
         "method": spec.fit.method,
         "runs": runs,
         "seed": seed,
-        "backend": f"dask ({scheduler})" if scheduler else f"process pool ({workers} workers)",
+        "backend": f"dask ({scheduler})" if scheduler else f"{workers} local worker process{'es' if workers > 1 else ''}",
         "elapsed_s": round(elapsed, 3),
         "sweep": _describe(sweep, spec),
         "points": [
@@ -93,13 +96,15 @@ def montecarlo(
         ],
         "trend": trend(sweep, statistics) if sweep else None,
     }
-    out_dir = Path(out_dir) if out_dir is not None else folder / "out" / loaded.path.stem / "montecarlo"
     files = {
-        "montecarlo.json": json.dumps(summary, indent=2) + "\n",
+        "montecarlo.json": json.dumps(summary, indent=2, allow_nan=False) + "\n",
         "montecarlo.csv": _robots_csv(sweep, design, calibrated, spec.robot.units),
         **study_plots(summary),
     }
-    return Study(summary, out_dir, write_files(out_dir, files))
+    written = write_files(out_dir, files)
+    for stale in STUDY_PLOTS - set(files):  # a plot of an earlier study in this folder would mislead
+        (out_dir / stale).unlink(missing_ok=True)
+    return Study(summary, out_dir, written)
 
 
 def _collect(results: list[ChunkResult], count: int, runs: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -119,7 +124,7 @@ def _describe(sweep: Sweep | None, spec) -> dict | None:
     if sweep is None:
         return None
     variable = VARIABLES[sweep.variable]
-    unit = {"length": spec.robot.units.length, "angle": spec.robot.units.angle}.get(variable.kind, "1")
+    unit = spec_unit(spec, variable.kind)
     return {"variable": sweep.variable, "meaning": variable.meaning, "unit": unit, "values": list(sweep.shown), "source": variable.source}
 
 

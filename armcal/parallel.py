@@ -29,7 +29,9 @@ def run_tasks(
 ) -> list:
     """[function(task) for task in tasks], run in parallel; ``scheduler`` is a Dask scheduler's address."""
     report = progress or (lambda result: None)
-    if scheduler:
+    if scheduler is not None:
+        if not scheduler.strip():
+            raise UserError("--scheduler needs an address, e.g. tcp://10.0.0.5:8786")
         return _on_dask(function, tasks, scheduler, report)
     workers = min(workers or default_workers(), len(tasks))
     if workers <= 1:
@@ -41,9 +43,13 @@ def run_tasks(
     results: list = [None] * len(tasks)
     with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
         position = {pool.submit(function, task): i for i, task in enumerate(tasks)}
-        for future in as_completed(position):
-            results[position[future]] = future.result()
-            report(results[position[future]])
+        try:
+            for future in as_completed(position):
+                results[position[future]] = future.result()
+                report(results[position[future]])
+        except BaseException:
+            pool.shutdown(cancel_futures=True)  # a failed task stops the rest at once
+            raise
     return results
 
 
@@ -54,7 +60,7 @@ def _on_dask(function: Callable, tasks: Sequence, scheduler: str, report: Progre
         raise UserError("--scheduler needs Dask's distributed scheduler client: pip install 'armcal[dask]'") from None
     try:
         client = Client(scheduler, timeout="10s", set_as_default=False)
-    except (OSError, TimeoutError) as exc:
+    except (OSError, TimeoutError, ValueError) as exc:
         raise UserError(f"cannot reach the Dask scheduler at {scheduler} ({exc})") from None
     with client:
         futures = client.map(function, list(tasks), pure=False)

@@ -13,6 +13,7 @@ from armcal.diagnose.stage import identify_and_diagnose
 from armcal.evaluate.evidence import evidence
 from armcal.evaluate.grid import evaluation_tasks
 from armcal.evaluate.summary import summarize
+from armcal.fileio import output_folder
 from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import draw_plots
 from armcal.report.render import certificate_files, write_files
@@ -41,7 +42,7 @@ def default_out_dir(spec_path: Path) -> Path:
 
 def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: bool = True) -> Outcome:
     loaded = load_spec(spec_path)
-    out_dir = Path(out_dir) if out_dir is not None else default_out_dir(loaded.path)
+    out_dir = output_folder(out_dir if out_dir is not None else default_out_dir(loaded.path))
     _refuse_overwrite(out_dir, force)
     spec = loaded.spec
     if spec.data is None:

@@ -108,7 +108,9 @@ def study_summary(study) -> str:
         design, calibrated = (" ".join(f"{v:.4f}" for v in radial(point, c)) for c in ("design", "calibrated"))
         failed = s["runs"] - point["converged"]
         lines.append(f"  {label:>24s}  {design} | {calibrated}" + (f"  ({failed} fits not converged)" if failed else ""))
-    if s["trend"]:
+    if s["trend"] and s["trend"]["median_slope"] is None:
+        lines.append("  trend: no index varies from robot to robot (no errors, no noise?); nothing to fit")
+    elif s["trend"]:
         t = s["trend"]
         lines.append(
             f"  trend of the {t['controller']} indices' std: slope {t['median_slope']:.2f} (median of 34; lengths {t['length_slope']:.2f},"

@@ -64,3 +64,10 @@ def test_an_unreachable_scheduler_is_a_user_error(tmp_path):
     command = [sys.executable, "-m", "armcal", "batch", str(FLEET[0]), "--out", str(tmp_path), "--scheduler", "tcp://127.0.0.1:9"]
     result = subprocess.run(command, capture_output=True, text=True, cwd=ROOT)
     assert result.returncode == 1 and "cannot reach the Dask scheduler" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_two_jobs_never_share_an_output_folder(tmp_path):
+    from armcal.errors import UserError
+
+    with pytest.raises(UserError, match="two specs would write to"):
+        batch([FLEET[0], Path(str(FLEET[0]).replace("/examples/", "/examples/../examples/"))], pdf=False, workers=1)

@@ -113,6 +113,11 @@ def test_target_radius_sweep_moves_every_swept_target_to_r():
         (["--sweep", "speed=1,2"], "unknown variable 'speed'"),
         (["--sweep", "noise_factor=1"], "at least two values"),
         (["--sweep", "points_per_joint=20,2.5"], "positive whole number"),
+        (["--sweep", "points_per_joint=2,20"], "at least 3"),
+        (["--sweep", "points_per_joint=inf,20"], "positive whole number"),
+        (["--sweep", "noise_factor=2,2"], "repeats a value"),
+        (["--sweep", "target_radius=30 cm,300 mm"], "repeats a value"),
+        (["--seed", "-1"], "--seed"),
         (["--runs", "1"], "--runs"),
     ],
 )
@@ -127,3 +132,20 @@ def test_circle_point_sweeps_need_a_circle_point_procedure(tmp_path):
 
     with pytest.raises(UserError, match="circle-point"):
         montecarlo(ROOT / "examples" / "goswami_ballbar" / "spec.yaml", 4, ["points_per_joint=20,40"], out_dir=tmp_path)
+
+
+def test_a_least_squares_study_with_the_specs_declared_effects(tmp_path):
+    """A spec fitted by Levenberg-Marquardt: every robot converges and calibrated control beats design control."""
+    study = montecarlo(ROOT / "examples" / "goswami_ballbar" / "spec.yaml", 3, out_dir=tmp_path, workers=1).summary
+    point = study["points"][0]
+    assert study["method"] == "least_squares" and point["converged"] == 3
+    radial = [row for row in point["indices"] if row["index"].endswith("radial")]
+    assert all(row["calibrated"]["std"] < row["design"]["std"] for row in radial)
+
+
+def test_an_output_path_that_is_a_file_is_a_user_error(tmp_path):
+    from armcal.errors import UserError
+
+    (tmp_path / "taken").write_text("")
+    with pytest.raises(UserError, match="is a file"):
+        montecarlo(SONIC, 2, out_dir=tmp_path / "taken" / "study")

@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import SPECS
+from conftest import ROOT, SPECS
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
@@ -141,3 +141,15 @@ def test_a_procedure_that_plans_no_readable_pose_is_a_clear_error(tmp_path):
     loaded = _spec(tmp_path, "goswami_puma560", [("  longitudes: 23", "  longitudes: 4\n  radius: 500")])  # 5 m shells
     with pytest.raises(UserError, match="the calibration procedure plans no pose the instrument can read"):
         simulate_campaign(loaded.spec, tmp_path)
+
+
+def test_simulating_hidden_effects_reproduces_the_shipped_example(tmp_path):
+    """examples/hidden_harmonic: the same CSV files byte for byte, and a truth.json the run can read back."""
+    folder = ROOT / "examples" / "hidden_harmonic"
+    loaded = load_spec(folder / "spec.yaml")
+    _, written = write_simulation(loaded, tmp_path)
+    for path in written:
+        assert path.read_bytes() == (folder / path.name).read_bytes(), path.name
+    record = json.loads((tmp_path / "truth.json").read_text())
+    robot = TrueRobot.from_record(compile_robot(loaded.spec.robot), record)
+    assert [(e.type, e.joint, e.order, e.values) for e in robot.effects.effects] == [("gear_harmonic", 2, 1, record["hidden_effects"][0]["values"])]

@@ -123,7 +123,7 @@ def _parse(path: Path, spec: Spec, cols: Layout, header: list[str], rows: list[l
                 continue
             raw = row[index[column]].strip()
             if kind == "text":
-                raw = links.get(raw, raw) if column == "target" else raw
+                raw = links.get(raw, raw) if column == "target" and raw not in names["target"] else raw
                 text[column][r] = raw
                 if column in names and raw not in names[column]:
                     allowed = ", ".join(sorted(n for n in names[column] if n)) or "none"

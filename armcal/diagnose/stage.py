@@ -29,12 +29,9 @@ class Calibration:
     start: np.ndarray  # the nominal model, with a free instrument-to-base transform registered: "before"
 
 
-def identify_and_diagnose(
-    spec: Spec, kinematics: KinematicModel, device: DeviceModel, raw: Measurements, calibration: Measurements, validation: Measurements | None
-) -> Calibration:
-    declared = [from_spec(e) for e in spec.effects]
-    settings = spec.diagnose
-    effects = EffectSet(tuple(declared))
+def calibration_problem(spec: Spec, kinematics: KinematicModel, device: DeviceModel, calibration: Measurements) -> tuple[Problem, np.ndarray]:
+    """The calibration data's problem with the spec's declared effects, and where the fit starts."""
+    effects = EffectSet(tuple(from_spec(e) for e in spec.effects))
     problem = build_problem(kinematics, device, calibration, effects)
     free = int(problem.parameters.free.sum())
     if len(problem.residuals.sample) <= free:
@@ -42,7 +39,16 @@ def identify_and_diagnose(
             f"{calibration.source}: {len(problem.residuals.sample)} readings cannot determine {free} free parameters; "
             "measure more poses or fix parameters in the spec"
         )
-    start = starting_values(problem, kinematics, device, calibration)
+    return problem, starting_values(problem, kinematics, device, calibration)
+
+
+def identify_and_diagnose(
+    spec: Spec, kinematics: KinematicModel, device: DeviceModel, raw: Measurements, calibration: Measurements, validation: Measurements | None
+) -> Calibration:
+    declared = [from_spec(e) for e in spec.effects]
+    settings = spec.diagnose
+    effects = EffectSet(tuple(declared))
+    problem, start = calibration_problem(spec, kinematics, device, calibration)
     if settings.enabled and settings.max_rounds > 0 and spec.fit.method == "least_squares":
         moved = spec.data is not None and spec.data.instrument_moved
         diagnosis = run_diagnosis(kinematics, device, calibration, validation, declared, spec.fit, settings, start, moved)

@@ -1,6 +1,6 @@
 """Stone's Monte-Carlo study (7.2-7.4): many simulated robots, each identified, then the grid task.
 
-Robot i of a study is drawn from seed i (Stone's manufacturing-error model 7.1-7.8
+Robot i of a study is drawn from the i-th child of SeedSequence(seed) (Stone's manufacturing-error model 7.1-7.8
 generalised, simulate/truth.py), measured by the spec's procedure with the
 instrument's noise (7.9), identified by the spec's method, and sent to the 34
 grid vertices of Table 7-1 under design-model control (7.2.2) and under control
@@ -22,11 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from armcal.devices import device_model
+from armcal.diagnose.stage import calibration_problem
 from armcal.errors import UserError
 from armcal.evaluate.grid import TaskControl, grid_indices, measured_point
 from armcal.identify.feature_fit import feature_parameters
 from armcal.identify.fit import fit
-from armcal.identify.problem import build_problem, combined_parameters
+from armcal.identify.problem import combined_parameters
 from armcal.procedures.tasks import grid_task
 from armcal.simulate.campaign import CampaignSimulator
 from armcal.simulate.truth import TrueRobot
@@ -80,14 +81,16 @@ class RobotStudy:
         return _values(grid_indices(design, desired)), _values(grid_indices(calibrated, desired)), converged
 
     def _identify(self, raw) -> tuple[np.ndarray, bool]:
-        """The spec's method: Stone's features alone (as in his study), or Levenberg-Marquardt."""
+        """The spec's method: Stone's features alone (as in his study), or Levenberg-Marquardt with the
+        spec's declared effects from the same start as `armcal run` (the diagnosis is not run in a study)."""
         data = self.fit_device.prepare(raw)
         kinematics = self.simulator.kinematics
         if self.spec.fit.method == "s_model_features":
             theta, _ = feature_parameters(self.spec, data, combined_parameters(kinematics, self.fit_device))
             return theta, True
-        result = fit(build_problem(kinematics, self.fit_device, data), self.spec.fit)
-        return result.theta, result.solver.status == "converged"
+        problem, start = calibration_problem(self.spec, kinematics, self.fit_device, data)
+        result = fit(problem, self.spec.fit, start=start)
+        return result.theta, bool(result.solver.converged)
 
 
 def _values(indices: dict[str, float]) -> np.ndarray:
@@ -99,10 +102,12 @@ _STUDIES: dict[str, RobotStudy] = {}  # per worker process: study points already
 
 def _study(spec: Spec, spec_dir: Path) -> RobotStudy:
     key = hashlib.sha256(f"{spec_dir}|{spec.model_dump_json()}".encode()).hexdigest()
-    if key not in _STUDIES:
+    study = _STUDIES.get(key)
+    if study is None:  # threads of one worker may race here: each then builds its own, none is lost
+        study = RobotStudy(spec, spec_dir)
         _STUDIES.clear()  # a worker keeps the point it is on; chunks come point by point
-        _STUDIES[key] = RobotStudy(spec, spec_dir)
-    return _STUDIES[key]
+        _STUDIES[key] = study
+    return study
 
 
 def robot_seeds(seed: int, runs: int) -> list[np.random.SeedSequence]:

@@ -45,10 +45,15 @@ def trend(sweep: Sweep, points: list[list[dict]]) -> dict:
         "controller": variable.controller,
         "expected_slope": variable.expected_slope,
         "source": variable.source,
-        "median_slope": float(np.median(list(slopes.values()))),
-        "length_slope": float(np.median([v for name, v in slopes.items() if index_kind(name) == "length"])),
-        "angle_slope": float(np.median([v for name, v in slopes.items() if index_kind(name) == "angle"])),
-        "orientation_slope": float(np.median([v for name, v in slopes.items() if "orientation" in name])),
-        "radial_slope": float(np.mean([slopes[name] for name in RADIAL if name in slopes])),
+        "median_slope": _median(list(slopes.values())),
+        "length_slope": _median([v for name, v in slopes.items() if index_kind(name) == "length"]),
+        "angle_slope": _median([v for name, v in slopes.items() if index_kind(name) == "angle"]),
+        "orientation_slope": _median([v for name, v in slopes.items() if "orientation" in name]),
+        "radial_slope": float(np.mean([slopes[name] for name in RADIAL])) if all(name in slopes for name in RADIAL) else None,
         "slopes": slopes,
     }
+
+
+def _median(values: list[float]) -> float | None:
+    """None when no index spreads at all (nothing to fit a slope to)."""
+    return float(np.median(values)) if values else None

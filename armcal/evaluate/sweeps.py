@@ -8,6 +8,7 @@ standard deviations of the grid indices, so a study can say whether it holds:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,9 +45,10 @@ class Sweep:
     values: tuple[float, ...]  # internal units (mm, rad, 1)
     shown: tuple[float, ...]  # as written, in the spec's units
 
-    @property
-    def unit_kind(self) -> str:
-        return VARIABLES[self.variable].kind
+
+def spec_unit(spec: Spec, kind: str) -> str:
+    """The spec's unit for values of ``kind`` (length, angle; "1" for scales and counts)."""
+    return {"length": spec.robot.units.length, "angle": spec.robot.units.angle}.get(kind, "1")
 
 
 def parse_sweep(text: str, spec: Spec) -> Sweep:
@@ -59,17 +61,20 @@ def parse_sweep(text: str, spec: Spec) -> Sweep:
     if len(items) < 2:
         raise UserError(f"--sweep {text!r}: give at least two values, e.g. {name}=1,2,5")
     kind = VARIABLES[name].kind
-    spec_unit = {"length": spec.robot.units.length, "angle": spec.robot.units.angle}.get(kind, "1")
+    unit = spec_unit(spec, kind)
     values, shown = [], []
     for item in items:
         try:
-            value = float(item) if kind == "count" else units.to_internal(item, kind, spec_unit)
+            value = float(item) if kind == "count" else units.to_internal(item, kind, unit)
         except ValueError as exc:
-            raise UserError(f"--sweep {text!r}: {item!r} is not a {kind} ({exc})") from None
-        if not value > 0 or (kind == "count" and value != int(value)):
-            raise UserError(f"--sweep {text!r}: {item!r} must be a positive {'whole number' if kind == 'count' else 'number'}")
+            raise UserError(f"--sweep {text!r}: {item!r} is not a valid {kind} ({exc})") from None
+        if not (math.isfinite(value) and value > 0) or (kind == "count" and (value != int(value) or value < 3)):
+            wanted = "whole number of at least 3 (a circle needs 3 points)" if kind == "count" else "finite number"
+            raise UserError(f"--sweep {text!r}: {item!r} must be a positive {wanted}")
+        if any(math.isclose(value, earlier) for earlier in values):
+            raise UserError(f"--sweep {text!r}: {item!r} repeats a value; a trend needs distinct values")
         values.append(value)
-        shown.append(value if kind in ("count", "scale") else units.from_internal(value, kind, spec_unit))
+        shown.append(value if kind in ("count", "scale") else units.from_internal(value, kind, unit))
     return Sweep(name, tuple(values), tuple(shown))
 
 

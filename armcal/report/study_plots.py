@@ -14,10 +14,14 @@ from armcal.evaluate.grid import index_kind
 from armcal.report.plots import plt, svg
 
 
+SPREAD, TREND = "montecarlo_spread.svg", "montecarlo_trend.svg"
+
+
 def study_plots(summary: dict) -> dict[str, str]:
-    plots = {"montecarlo_spread.svg": spread(summary)}
-    if summary["trend"] is not None:
-        plots["montecarlo_trend.svg"] = radial_trend(summary)
+    """The study's plots by file name (the trend only for a sweep with spreads to fit)."""
+    plots = {SPREAD: spread(summary)}
+    if summary["trend"] is not None and summary["trend"]["radial_slope"] is not None:
+        plots[TREND] = radial_trend(summary)
     return plots
 
 

@@ -93,13 +93,13 @@ class TrueRobot:
             "encoder_errors": self.encoder_errors.tolist(),
             "link_errors": [e.tolist() for e in self.link_errors],
             "parameters": dict(zip(self.kinematics.parameters.names, self.p.tolist())),
-            "hidden_effects": [asdict(e) for e in self.effects.effects],
+            "hidden_effects": [{**asdict(e), "held": sorted(e.held)} for e in self.effects.effects],
         }
 
 
 def _effect(record: dict) -> EffectSpec:
     masses = tuple(LumpedMass(m["link"], m["mass"], tuple(m["centre"])) for m in record.get("masses", ()))
-    return EffectSpec(**{**record, "masses": masses})
+    return EffectSpec(**{**record, "masses": masses, "held": frozenset(record.get("held", ()))})
 
 
 def _inverse_batch(T: np.ndarray) -> np.ndarray:

@@ -84,7 +84,7 @@ class Parameter(SpecModel):
 
 
 def fixed(value: float) -> Parameter:
-    """A parameter held at ``value`` (the default of parameters a spec leaves out)."""
+    """A parameter held at ``value`` (the default of kinematic and device parameters a spec leaves out)."""
     return Parameter(value=value, vary=False)
 
 

@@ -54,7 +54,7 @@ class Poses(SpecModel):
     type: Literal["poses"]
     file: str | None = Field(None, description="CSV of joint values q1..qN, relative to the spec")
     count: int | None = Field(None, ge=1, description="number of random poses within the joint limits (without file)")
-    seed: int = Field(0, description="seed of the random poses")
+    seed: int = Field(0, ge=0, description="seed of the random poses")
 
 
 Procedure = Annotated[Union[CirclePoint, Shells, Poses], Field(discriminator="type")]

@@ -152,6 +152,8 @@ def _default(node: dict, kind: str | None) -> str:
     if "default" not in node:
         return "optional"
     value = node["default"]
+    if isinstance(value, dict) and {"value", "vary"} <= set(value):  # a parameter's default
+        return f"`{value['value']:g}`, {'free' if value['vary'] else 'fixed'}"
     if isinstance(value, dict) and value:
         return "each key's default"
     if isinstance(value, list) and node.get("prefixItems") and kind is None:

@@ -150,12 +150,12 @@ class Simulate(SpecModel):
     generalised): a richer model than any convention that is fitted.
     """
 
-    seed: int = Field(0, description="seed of the true robot and the noise")
+    seed: int = Field(0, ge=0, description="seed of the true robot and the noise")
     sigma_p: Length = Field(0.1, ge=0.0, description="positional manufacturing error sigma (Stone 7.2)")
     sigma_o: Angle = Field(0.01 * DEG, ge=0.0, description="orientational manufacturing error sigma (Stone 7.2)")
     sigma_e: Angle = Field(0.1 * DEG, ge=0.0, description="encoder calibration error sigma (Stone 7.2)")
     noise: bool = Field(True, description="add the instrument's noise to the readings")
-    noise_factor: float = Field(1.0, gt=0.0, description="k: the instrument's noise sigma times k (Stone 7.4.3)")
+    noise_factor: Number = Field(1.0, gt=0.0, description="k: the instrument's noise sigma times k (Stone 7.4.3)")
     effects: list[Effect] = Field([], description="hidden effects, never visible to the fit")
     time_step: float = Field(10.0, ge=0.0, description="seconds between samples (t column)")
     temperature: tuple[float, float] | None = Field(None, description="start and end temperature, degC")

@@ -25,7 +25,7 @@ from armcal.fileio import output_folder
 from armcal.evaluate.grid import grid_indices, index_kind
 from armcal.evaluate.montecarlo import ChunkResult, check_points, chunks, run_chunk
 from armcal.evaluate.study_statistics import index_statistics, trend
-from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, spec_unit, variant
+from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, variant
 from armcal.parallel import default_workers, run_tasks
 from armcal.procedures.tasks import grid_task
 from armcal.report.render import write_files
@@ -124,7 +124,7 @@ def _describe(sweep: Sweep | None, spec) -> dict | None:
     if sweep is None:
         return None
     variable = VARIABLES[sweep.variable]
-    unit = spec_unit(spec, variable.kind)
+    unit = spec.robot.units.of(variable.kind)
     return {"variable": sweep.variable, "meaning": variable.meaning, "unit": unit, "values": list(sweep.shown), "source": variable.source}
 
 
@@ -133,7 +133,7 @@ def _robots_csv(sweep: Sweep | None, design: np.ndarray, calibrated: np.ndarray,
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(["variable", "value", "robot", "controller", *INDEX_NAMES])
-    factors = [from_internal(1.0, index_kind(n), units.angle if index_kind(n) == "angle" else units.length) for n in INDEX_NAMES]
+    factors = [from_internal(1.0, index_kind(n), units.of(index_kind(n))) for n in INDEX_NAMES]
     for k in range(design.shape[0]):
         for robot in range(design.shape[1]):
             for controller, values in (("design", design), ("calibrated", calibrated)):

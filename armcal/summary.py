@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from armcal.errors import UserError
+from armcal.evaluate.grid import RADIAL
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.transforms import pose_from_matrix
 from armcal.spec import LoadedSpec
@@ -38,7 +39,7 @@ def parse_joint_values(loaded: LoadedSpec, text: str) -> np.ndarray:
     values = []
     for i, (part, joint) in enumerate(zip(parts, robot.joints), start=1):
         kind = joint_kind(joint.type)
-        unit = robot.units.angle if kind == "angle" else robot.units.length
+        unit = robot.units.of(kind)
         try:
             value = to_internal(part, kind, unit)
         except ValueError as exc:
@@ -99,7 +100,7 @@ def study_summary(study) -> str:
     s = study.summary
     sweep = s["sweep"]
     lines = [f"Monte-Carlo study: {s['runs']} robots per point, {s['method']}, {s['backend']}, {s['elapsed_s']:.1f} s"]
-    radial = lambda point, controller: [r[controller]["std"] for r in point["indices"] if r["index"].endswith("radial")]  # noqa: E731
+    radial = lambda point, controller: [r[controller]["std"] for r in point["indices"] if r["index"] in RADIAL]  # noqa: E731
     unit = s["points"][0]["indices"][0]["unit"]
     header = f"  {sweep['variable'] + ' (' + sweep['unit'] + ')' if sweep else 'point':>24s}  radial error std ({unit}), vertices 1/4/5/8: design | calibrated"
     lines.append(header)

@@ -20,6 +20,7 @@ LINES = [(1, 2), (1, 3), (2, 4), (3, 4), (5, 6), (5, 7), (6, 8), (7, 8), (1, 5),
 DIAGONALS = [(1, 4), (2, 3), (5, 8), (6, 7)]
 MIDPOINTS = {1: 9, 4: 10, 5: 11, 8: 12}  # line -> its midpoint vertex
 CORNERS = (1, 4, 5, 8)
+RADIAL = tuple(f"vertex {k} radial" for k in CORNERS)  # the indices of Stone's Figures 7-4 to 7-8
 
 
 def _angle(R: np.ndarray) -> float:
@@ -156,7 +157,7 @@ def grid_evaluation(
     rows = []
     for name in design:
         kind = index_kind(name)
-        unit = units.angle if kind == "angle" else units.length
+        unit = units.of(kind)
         d, c = design[name], calibrated[name]
         rows.append(
             {

@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from armcal.evaluate.grid import index_kind
+from armcal.evaluate.grid import RADIAL, index_kind
 from armcal.evaluate.sweeps import VARIABLES, Sweep
 from armcal.units import from_internal
 
-RADIAL = ("vertex 1 radial", "vertex 4 radial", "vertex 5 radial", "vertex 8 radial")
 
 
 def index_statistics(names: list[str], design: np.ndarray, calibrated: np.ndarray, units) -> list[dict]:
@@ -25,7 +24,7 @@ def index_statistics(names: list[str], design: np.ndarray, calibrated: np.ndarra
     rows = []
     for i, name in enumerate(names):
         kind = index_kind(name)
-        unit = units.angle if kind == "angle" else units.length
+        unit = units.of(kind)
         shown = lambda values: {"mean": from_internal(float(values.mean()), kind, unit), "std": from_internal(float(values.std(ddof=1)), kind, unit)}  # noqa: E731
         rows.append({"index": name, "unit": unit, "design": shown(design[:, i]), "calibrated": shown(calibrated[:, i])})
     return rows

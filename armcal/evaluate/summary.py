@@ -10,7 +10,7 @@ from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
 from armcal.evaluate.residuals import before_after, improvement, readings_residuals, residual_unit
 from armcal.identify.uncertainty import residual_stats
-from armcal.results.build import build_results, parameter_rows, spec_unit
+from armcal.results.build import build_results, parameter_rows
 from armcal.results.model import Results
 from armcal.spec import LoadedSpec
 from armcal.spec.sections import EFFECT_TYPES
@@ -93,7 +93,7 @@ def effect_result(loaded: LoadedSpec, effect: EffectSpec, problem, theta: np.nda
     parameters = []
     for p in effect.parameters():
         i = problem.parameters.index(p.name)
-        unit = spec_unit(p.kind, loaded)
+        unit = loaded.spec.robot.units.of(p.kind)
         shown = lambda v: None if v is None or np.isnan(v) else from_internal(float(v), p.kind, unit)  # noqa: E731
         parameters.append({"name": p.name, "value": shown(theta[i]), "std": shown(std[i]), "unit": unit})
     return {"type": effect.type, "joint": effect.joint, "order": effect.order, "parameters": parameters}

@@ -46,11 +46,6 @@ class Sweep:
     shown: tuple[float, ...]  # as written, in the spec's units
 
 
-def spec_unit(spec: Spec, kind: str) -> str:
-    """The spec's unit for values of ``kind`` (length, angle; "1" for scales and counts)."""
-    return {"length": spec.robot.units.length, "angle": spec.robot.units.angle}.get(kind, "1")
-
-
 def parse_sweep(text: str, spec: Spec) -> Sweep:
     """``name=v1,v2,...`` -> a Sweep, values converted from the spec's units; a user error names what is wrong."""
     name, _, raw = text.partition("=")
@@ -61,7 +56,7 @@ def parse_sweep(text: str, spec: Spec) -> Sweep:
     if len(items) < 2:
         raise UserError(f"--sweep {text!r}: give at least two values, e.g. {name}=1,2,5")
     kind = VARIABLES[name].kind
-    unit = spec_unit(spec, kind)
+    unit = spec.robot.units.of(kind)
     values, shown = [], []
     for item in items:
         try:

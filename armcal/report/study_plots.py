@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.ticker import NullFormatter
 
-from armcal.evaluate.grid import index_kind
+from armcal.evaluate.grid import RADIAL, index_kind
 from armcal.report.plots import plt, svg
 
 
@@ -31,8 +31,7 @@ def radial_trend(summary: dict) -> str:
     values = np.array(sweep["values"], dtype=float)
     figure, axis = plt.subplots(figsize=(4.5, 3.0))
     spreads = []
-    radial = [row["index"] for row in summary["points"][0]["indices"] if row["index"].endswith("radial")]
-    for name in radial:
+    for name in RADIAL:
         spread = np.array([next(r for r in p["indices"] if r["index"] == name)[found["controller"]]["std"] for p in summary["points"]])
         spreads.append(spread)
         axis.plot(values, spread, marker="o", ms=3, lw=1, label=name)

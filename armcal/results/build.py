@@ -11,19 +11,13 @@ from armcal.results.campaign import report_fields
 from armcal.results.model import Results
 from armcal.results.provenance import git_info, utc_now
 from armcal.spec import LoadedSpec
-from armcal.units import INTERNAL_UNIT, from_internal
-
-
-def spec_unit(kind: str, loaded: LoadedSpec) -> str:
-    """The spec's unit for lengths and angles; the internal unit for other kinds."""
-    units = loaded.spec.robot.units
-    return {"length": units.length, "angle": units.angle}.get(kind, INTERNAL_UNIT[kind])
+from armcal.units import from_internal
 
 
 def parameter_rows(loaded: LoadedSpec, entries, values: np.ndarray, std: np.ndarray, identified: set[str]) -> list[dict]:
     rows = []
     for entry, value, sd in zip(entries, values, std):
-        unit = spec_unit(entry.kind, loaded)
+        unit = loaded.spec.robot.units.of(entry.kind)
         shown = lambda v: from_internal(float(v), entry.kind, unit)  # noqa: E731
         rows.append(
             {

@@ -18,7 +18,7 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from armcal import __version__
 from armcal.effects.library import from_spec, to_spec_dict
 from armcal.spec.model import Spec
-from armcal.units import INTERNAL_UNIT, from_internal
+from armcal.units import from_internal
 
 SIGNIFICANT = 10
 
@@ -80,8 +80,7 @@ def calibrated_yaml(
     yaml.preserve_quotes = True
     yaml.width = 4096  # keep flow-style rows on one line as the user wrote them
     root = yaml.load(spec_text)
-    units = {"length": spec.robot.units.length, "angle": spec.robot.units.angle}
-    shown = lambda value, kind: float(f"{from_internal(value, kind, units.get(kind, INTERNAL_UNIT[kind])):.{SIGNIFICANT}g}")  # noqa: E731
+    shown = lambda value, kind: float(f"{from_internal(value, kind, spec.robot.units.of(kind)):.{SIGNIFICANT}g}")  # noqa: E731
     for name, (value, kind) in identified.items():
         _set(root, yaml_path(name, spec), shown(value, kind))
     if added_effects:

@@ -44,6 +44,10 @@ class Units(SpecModel):
     length: Literal[tuple(units.LENGTH_UNITS)] = Field("mm", description="unit of plain lengths")  # type: ignore[valid-type]
     angle: Literal[tuple(units.ANGLE_UNITS)] = Field("deg", description="unit of plain angles")  # type: ignore[valid-type]
 
+    def of(self, kind: str) -> str:
+        """The spec's unit for lengths and angles; the internal unit of other kinds ("1" for counts)."""
+        return {"length": self.length, "angle": self.angle}.get(kind) or units.INTERNAL_UNIT.get(kind, "1")
+
 
 class Offset(SpecModel):
     """A translation x, y, z; left-out parts are fixed at 0."""

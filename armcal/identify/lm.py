@@ -3,9 +3,23 @@
 Step: (J^T W J + lambda D) dp = -J^T W r with D = diag(J^T W J) (Marquardt's
 scaling of (7), which makes the step independent of parameter units); lambda
 shrinks after a step that lowers the cost and grows after one that does not.
-Stops on a small step, a small gradient or a stalled cost; at the iteration
-limit the last iterate is kept and the status says why. A robust loss (Huber
-or Cauchy, as iteratively reweighted least squares) down-weights outliers.
+A robust loss (Huber or Cauchy, as iteratively reweighted least squares)
+down-weights outliers.
+
+The fit has reached a minimum when one of three scale-free tests holds (none
+depends on the parameters' units or on the size of the residuals, so neither on
+the noise level declared):
+- scaled gradient: max_i |g_i| / (sqrt(A_ii) sqrt(2 cost)) <= GTOL, the cosine
+  between the residual vector and every Jacobian column (MINPACK's gtol): no
+  parameter can move the residuals towards smaller values;
+- relative cost decrease: an accepted step lowered the cost by at most FTOL of
+  it and the linear model predicted no more (MINPACK's ftol);
+- scaled step: max_i |dp_i| sqrt(A_ii) / sqrt(2 cost) <= XTOL, no parameter's
+  step changes the residual vector by more than XTOL of its length.
+When no step lowers the cost at any lambda, the fit has converged if the
+Gauss-Newton model predicts no decrease above FTOL of the cost (the minimum to
+rounding), else it has not. The iteration limit is a safety net that a fit
+converging normally does not meet; reaching it is reported as not converged.
 """
 
 from __future__ import annotations
@@ -14,6 +28,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+
+GTOL = 1e-8  # cosine between the residual vector and any Jacobian column
+FTOL = 1e-10  # relative cost decrease, actual and predicted
+XTOL = 1e-8  # step, as the change of the residual vector it makes, relative to that vector's length
 
 
 @dataclass(frozen=True)
@@ -35,6 +53,14 @@ def robust_weights(r: np.ndarray, loss: str, scale: float) -> np.ndarray:
     return np.ones_like(r)
 
 
+def scaled_gradient(g: np.ndarray, A: np.ndarray, cost: float) -> float:
+    """max_i |g_i| / (sqrt(A_ii) sqrt(2 cost)): 0 at a minimum, 1 when a column points along the residuals."""
+    norms = np.sqrt(np.maximum(np.diag(A), 0.0)) * np.sqrt(2.0 * cost)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cosines = np.where(norms > 0, np.abs(g) / norms, 0.0)
+    return float(np.max(cosines)) if len(cosines) else 0.0
+
+
 def levenberg_marquardt(
     residuals: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
     x0: np.ndarray,
@@ -43,9 +69,6 @@ def levenberg_marquardt(
     loss: str = "linear",
     loss_scale: float = 3.0,
     max_iterations: int = 100,
-    xtol: float = 1e-10,
-    gtol: float = 1e-10,
-    ftol: float = 1e-12,
 ) -> LMResult:
     """Minimise 1/2 sum w(r) r(x)^2; ``residuals(x)`` returns (r, J)."""
     x = np.asarray(x0, dtype=float).copy()
@@ -59,9 +82,13 @@ def levenberg_marquardt(
         JW = J * w[:, None]
         A = JW.T @ J
         g = JW.T @ r
-        if np.max(np.abs(g)) <= gtol * max(1.0, cost):
-            return LMResult(x, cost, iteration - 1, True, "gradient below tolerance", w)
-        D = np.maximum(np.diag(A), 1e-12 * max(1.0, np.max(np.diag(A))))
+        if cost == 0.0:
+            return LMResult(x, cost, iteration - 1, True, "the model reproduces every reading exactly", w)
+        gradient = scaled_gradient(g, A, cost)
+        if gradient <= GTOL:
+            return LMResult(x, cost, iteration - 1, True, f"scaled gradient {gradient:.1e} below {GTOL:g}", w)
+        largest = float(np.max(np.diag(A))) if len(A) else 0.0
+        D = np.maximum(np.diag(A), 1e-12 * largest if largest > 0 else 1.0)  # relative floor: scale-free
         while True:
             try:
                 step = -np.linalg.solve(A + lam * np.diag(D), g)  # (10) with Marquardt's scaling
@@ -75,15 +102,20 @@ def levenberg_marquardt(
                 break
             lam *= 4.0
             if lam > 1e16:
+                predicted = 0.5 * float(g @ np.linalg.pinv(A) @ g)
+                if predicted <= FTOL * cost:
+                    return LMResult(x, cost, iteration, True, "at the minimum to rounding (no step lowers the cost)", w)
                 return LMResult(x, cost, iteration, False, "no step lowers the cost (lambda exhausted)", w)
-        small_step = np.linalg.norm(x_new - x) <= xtol * (np.linalg.norm(x) + xtol)
-        stalled = cost - cost_new <= ftol * max(cost, 1e-300)
+        taken = x_new - x
+        predicted = -float(g @ taken) - 0.5 * float(taken @ A @ taken)
+        decrease = cost - cost_new
+        scaled_step = float(np.max(np.abs(taken) * np.sqrt(np.diag(A)))) / max(np.sqrt(2.0 * cost), 1e-300) if len(taken) else 0.0
         x, r, J = x_new, r_new, J_new
         w = robust_weights(r, loss, loss_scale)
         cost = 0.5 * float(np.sum(w * r**2))
         lam = max(lam / 5.0, 1e-12)
-        if small_step:
-            return LMResult(x, cost, iteration, True, "step below tolerance", w)
-        if stalled and loss == "linear":
-            return LMResult(x, cost, iteration, True, "cost no longer decreases", w)
-    return LMResult(x, cost, max_iterations, False, f"iteration limit ({max_iterations}) reached", w)
+        if scaled_step <= XTOL:
+            return LMResult(x, cost, iteration, True, f"scaled step {scaled_step:.1e} below {XTOL:g}", w)
+        if loss == "linear" and decrease <= FTOL * cost_new and predicted <= FTOL * cost_new:
+            return LMResult(x, cost, iteration, True, f"relative cost decrease below {FTOL:g}", w)
+    return LMResult(x, cost, max_iterations, False, f"iteration limit ({max_iterations}) reached before a minimum", w)

@@ -7,6 +7,7 @@ import numpy as np
 from armcal.errors import UserError
 from armcal.evaluate.grid import RADIAL
 from armcal.kinematics.compiler import compile_robot
+from armcal.kinematics.parallel import parallel_axes
 from armcal.kinematics.transforms import pose_from_matrix
 from armcal.spec import LoadedSpec
 from armcal.spec.robot import joint_kind
@@ -27,6 +28,10 @@ def spec_summary(loaded: LoadedSpec) -> str:
         f"  device     {spec.device.type}",
         f"  procedure  {spec.procedure.type}" + (f", validation {spec.validation.type}" if spec.validation else ""),
     ]
+    for axes in parallel_axes(robot):
+        done = [f"Hayati's {axes.name}.beta added (free, 0)"] if axes.beta_added else []
+        done += [f"{axes.name}.d held"] if axes.d_held else []
+        lines.append(f"  parallel   axes {axes.joint} and {axes.joint + 1}" + (": " + ", ".join(done) if done else ""))
     return "\n".join(lines)
 
 
@@ -88,6 +93,9 @@ def run_summary(outcome) -> str:
         val = r.residuals.validation
         lines.append(f"  validation  RMS {val.before.rms:.4g} -> {val.after.rms:.4g} {unit} (x{r.improvement_factor.validation:.3g})")
     lines.append(f"  noise check chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g} (p = {r.noise_check.p_value:.3g})")
+    for flat in r.identifiability.flat_directions:
+        moved = ", ".join(name for name, _ in flat.parameters)
+        lines.append(f"  flat direction at the solution: singular value {flat.ratio:.2g} of the largest, along {moved}")
     if r.identifiability.unidentifiable:
         lines.append(f"  not identifiable from these data: {', '.join(r.identifiability.unidentifiable)}")
     written = ["results.json", "calibrated.yaml", "certificate.html"] + (["certificate.pdf"] if (outcome.out_dir / "certificate.pdf").exists() else [])

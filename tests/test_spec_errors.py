@@ -30,7 +30,7 @@ def test_field_errors_are_located_and_plain():
             76,
             "robot.joints[2].lenght",
             "This field is unknown here. Remove it or check its spelling. "
-            "Allowed here: a, alpha, d, limits, name, theta, type.",
+            "Allowed here: a, alpha, beta, d, limits, name, theta, type.",
         ),
         (
             13,

@@ -1,7 +1,10 @@
 """The diagnosis after a fit: test every missing effect, add the strongest that holds out, refit, repeat.
 
 All candidates live in one problem with their parameters fixed at zero; adding
-one frees its parameters. A round accepts the candidate with the largest score
+one frees its parameters. The base set is decided once, at the design point (the
+start of the first fit): a candidate's parameters join it only where the geometry
+cannot absorb them there (identifiability.extend), and every refit and k-fold fold
+keeps that set. A round accepts the candidate with the largest score
 statistic among those significant after Holm's correction only if the error on
 data the fit did not see improves (the validation set, else k-fold cross
 validation). The loop ends when nothing is significant, the held-out error does
@@ -23,6 +26,7 @@ from armcal.effects.library import EffectSpec
 from armcal.effects.model import EffectSet
 from armcal.identify.fit import FitResult, fit
 from armcal.identify.heldout import held_out
+from armcal.identify.identifiability import Identifiability, analyse, extend
 from armcal.identify.problem import Problem, build_problem
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.kinematics.compiler import KinematicModel
@@ -75,8 +79,9 @@ class _Context:
             problem = build_problem(kinematics, device, validation, effects)
             self.validation = held_out(problem, kinematics, validation, instrument_moved)
 
-    def held_out_error(self, problem: Problem, theta: np.ndarray, free: set[str]) -> float:
-        """Weighted RMS on the validation set, else over k folds each fitted without its own samples."""
+    def held_out_error(self, problem: Problem, theta: np.ndarray, free: set[str], identifiability: Identifiability) -> float:
+        """Weighted RMS on the validation set, else over k folds each fitted without its own samples
+        (on the full fit's base set)."""
         if self.validation is not None:
             return weighted_rms(self.validation, theta)
         folds = self.settings.folds
@@ -85,7 +90,7 @@ class _Context:
         for k in range(folds):
             train = self._problem(self.calibration.subset(np.flatnonzero(fold != k)), problem, free)
             test = self._problem(self.calibration.subset(np.flatnonzero(fold == k)), problem, free)
-            r, _ = test.evaluate(fit(train, self.fit_settings, start=theta).theta)
+            r, _ = test.evaluate(fit(train, self.fit_settings, start=theta, identifiability=identifiability).theta)
             squares, count = squares + float(r @ r), count + len(r)
         return float(np.sqrt(squares / count))
 
@@ -113,7 +118,9 @@ def run_diagnosis(
     theta0 = problem.parameters.nominal.copy()
     if start is not None:
         theta0[: len(start)] = start
-    result = fit(problem, fit_settings, start=theta0)
+    _, J_design = problem.evaluate(theta0)
+    design = analyse(J_design, problem.parameters, problem.parameters.free)
+    result = fit(problem, fit_settings, start=theta0, identifiability=design)
     rounds, added, remaining = [], [], list(pool)
     for _ in range(settings.max_rounds):
         r, J = problem.evaluate(result.theta)
@@ -126,9 +133,10 @@ def run_diagnosis(
         best = max(significant, key=lambda t: t.statistic).effect
         names = {p.name for p in best.parameters()}
         trial_problem = with_free(problem, names)
-        trial = fit(trial_problem, fit_settings, start=result.theta)
-        before = context.held_out_error(problem, result.theta, set())
-        after = context.held_out_error(trial_problem, trial.theta, names)
+        trial_base = extend(result.identifiability, J_design, problem.parameters, [p.name for p in best.parameters()])
+        trial = fit(trial_problem, fit_settings, start=result.theta, identifiability=trial_base)
+        before = context.held_out_error(problem, result.theta, set(), result.identifiability)
+        after = context.held_out_error(trial_problem, trial.theta, names, trial_base)
         if not after < before:
             rounds.append(Round(tests, None, result.theta, result.theta, f"{best.id} did not lower the held-out error"))
             break

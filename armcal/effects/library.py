@@ -69,7 +69,7 @@ class EffectSpec:
 
     def parameters(self) -> list[ParameterInfo]:
         return [
-            ParameterInfo(f"{self.id}.{f}", kind, self.values.get(f, 0.0), self.free and f not in self.held, None, None)
+            ParameterInfo(f"{self.id}.{f}", kind, self.values.get(f, 0.0), self.free and f not in self.held, None, None, role="effect")
             for f, kind in self.fields()
         ]
 

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from armcal.kinematics.parallel import parallel_axes
+
 LINES = [(1, 2), (1, 3), (2, 4), (3, 4), (5, 6), (5, 7), (6, 8), (7, 8), (1, 5), (2, 6), (3, 7), (4, 8)]
 DIAGONALS = [(1, 4), (2, 3), (5, 8), (6, 7)]
 MIDPOINTS = {1: 9, 4: 10, 5: 11, 8: 12}  # line -> its midpoint vertex
@@ -175,7 +177,9 @@ def evaluation_tasks(spec, kinematics, calibrated, truth: dict | None) -> dict:
     """The tasks the spec's report asks for, when the data's truth is known (simulation)."""
     if truth is None:
         return {}
-    if set(truth.get("parameters", {})) != set(kinematics.parameters.names):
+    recorded, names = set(truth.get("parameters", {})), set(kinematics.parameters.names)
+    added = {f"{axes.name}.beta" for axes in parallel_axes(spec.robot) if axes.beta_added}  # at 0 in a record made before
+    if not recorded <= names or names - recorded - added:
         why = "the data's truth.json describes a robot of another model than this spec's (simulated from another spec)"
         return {task: {"skipped": why} for task in spec.report.tasks}
     from armcal.simulate.truth import TrueRobot

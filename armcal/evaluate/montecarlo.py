@@ -69,6 +69,7 @@ class RobotStudy:
         if control is None:
             raise UserError("the grid of Table 7-1 is not reachable by this robot's design model; a Monte-Carlo study needs it")
         self.control = control
+        self.design = None  # the base set, decided at the first robot's start and kept for the others
 
     def robot(self, seed: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray, bool]:
         """Grid indices (34,) under design-model and calibrated control of the robot of ``seed``, and convergence."""
@@ -89,7 +90,8 @@ class RobotStudy:
             theta, _ = feature_parameters(self.spec, data, combined_parameters(kinematics, self.fit_device))
             return theta, True
         problem, start = calibration_problem(self.spec, kinematics, self.fit_device, data)
-        result = fit(problem, self.spec.fit, start=start)
+        result = fit(problem, self.spec.fit, start=start, identifiability=self.design)
+        self.design = result.identifiability  # the study's base set: every robot is measured at the same poses
         return result.theta, bool(result.solver.converged)
 
 

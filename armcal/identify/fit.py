@@ -1,4 +1,10 @@
-"""One fit: base parameter set at the nominal, Levenberg-Marquardt on it, uncertainty at the solution."""
+"""One fit: the base parameter set of the design, Levenberg-Marquardt on it, uncertainty at the solution.
+
+The base set is decided at the design point (``design_identifiability``) and
+handed to every later fit of the same model and campaign design (refits of the
+diagnosis, k-fold folds, Monte-Carlo robots); a fit never decides it again at a
+fitted point (identifiability.py says why).
+"""
 
 from __future__ import annotations
 
@@ -6,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armcal.identify.identifiability import Identifiability, analyse
+from armcal.identify.identifiability import Conditioning, Identifiability, analyse, conditioning
 from armcal.identify.lm import LMResult, levenberg_marquardt
 from armcal.identify.problem import Problem
 from armcal.identify.uncertainty import Uncertainty, estimate
@@ -20,7 +26,8 @@ class FitResult:
     theta: np.ndarray  # all parameters, identified ones updated
     start: np.ndarray
     base: np.ndarray  # indices of the identified parameters in theta
-    identifiability: Identifiability
+    identifiability: Identifiability  # decided at the design point
+    conditioning: Conditioning  # of the scaled base Jacobian at the solution
     uncertainty: Uncertainty
     solver: LMResult
     outliers: np.ndarray  # residual indices the robust loss down-weighted
@@ -33,12 +40,21 @@ class FitResult:
         return out
 
 
-def fit(problem: Problem, settings: Fit, start: np.ndarray | None = None) -> FitResult:
-    """Identify the base parameters of ``problem`` from ``start`` (default: the nominal)."""
+def design_identifiability(problem: Problem, design: np.ndarray) -> Identifiability:
+    """The base set of ``problem``'s free parameters at the design point ``design``."""
+    _, J = problem.evaluate(design)
+    return analyse(J, problem.parameters, problem.parameters.free)
+
+
+def fit(problem: Problem, settings: Fit, start: np.ndarray | None = None, identifiability: Identifiability | None = None) -> FitResult:
+    """Identify the base parameters of ``problem`` from ``start`` (default: the nominal).
+
+    ``identifiability`` is the design's base set; without it, ``start`` is the design point.
+    """
     parameters = problem.parameters
     theta0 = parameters.nominal if start is None else np.asarray(start, dtype=float)
-    _, J0 = problem.evaluate(theta0)
-    identifiability = analyse(J0, parameters, parameters.free)
+    if identifiability is None:
+        identifiability = design_identifiability(problem, theta0)
     base = np.array([parameters.index(name) for name in identifiability.base], dtype=int)
     lower = np.array([e.lower if e.lower is not None else -np.inf for e in parameters.entries])[base]
     upper = np.array([e.upper if e.upper is not None else np.inf for e in parameters.entries])[base]
@@ -49,13 +65,12 @@ def fit(problem: Problem, settings: Fit, start: np.ndarray | None = None) -> Fit
         r, J = problem.evaluate(theta)
         return r, J[:, base]
 
-    solver = levenberg_marquardt(
-        residuals, theta0[base], lower, upper, settings.loss, settings.loss_scale, settings.max_iterations
-    )
+    solver = levenberg_marquardt(residuals, theta0[base], lower, upper, settings.loss, settings.loss_scale, settings.max_iterations)
     theta = theta0.copy()
     theta[base] = solver.x
     r, J = residuals(solver.x)
     weights = np.sqrt(solver.weights)
-    uncertainty = estimate(J * weights[:, None], r * weights, list(identifiability.base))
+    weighted = J * weights[:, None]
+    uncertainty = estimate(weighted, r * weights, list(identifiability.base))
     outliers = np.flatnonzero(solver.weights < OUTLIER_WEIGHT)
-    return FitResult(theta, theta0, base, identifiability, uncertainty, solver, outliers)
+    return FitResult(theta, theta0, base, identifiability, conditioning(weighted, list(identifiability.base)), uncertainty, solver, outliers)

@@ -1,25 +1,43 @@
 """Which parameters the data can determine: QR with column pivoting of the scaled Jacobian.
 
-Columns of the Jacobian at the nominal are scaled to unit norm (parameters of
+The base set is decided once per model and campaign design, at the design point
+(the nominal, or the nominal with the instrument registered), and kept for every
+refit, fold and study: away from the design a redundancy the geometry has exactly
+(parallel axes, a target on the last axis) is broken by the fitted errors and would
+look identifiable, with a condition number of 1e7 and a fit that slides along the
+valley.
+
+Columns of the Jacobian at the design point are scaled to unit norm (parameters of
 different units become comparable), then QR with column pivoting orders them by
 how much new information each adds (Goswami: counting independent columns,
-nonzero singular values). The first ``rank`` pivots form the base parameter set;
-every other free parameter is fixed at its nominal with the base parameters it is
-redundant with. Reported too: the condition number of the scaled base Jacobian,
-the observability index O1 = (s_1 ... s_m)^(1/m) / sqrt(M) (Borm & Menq), and
-directions no parameter can carry, such as the overall scale of a network.
+nonzero singular values), group by group in PRIORITY order: the instrument's
+parameters, then the targets', then the robot's own, each group's columns first
+projected off those chosen before. A column whose new part (|R_kk|) is below
+RANK_TOLERANCE adds nothing new; every such free parameter is held at its start
+value with the base parameters it is redundant with. So where no reading can tell
+two parameters apart, the instrument or the target carries the difference and the
+robot's parameter stays at its nominal: a reflector on the last axis takes the
+flange's offset along it, a free tracker pose the first joint's zero. Effect parameters are added after the geometry (``extend``):
+one is kept only when its column keeps more than RANK_TOLERANCE of its norm off
+the base columns, so an effect never makes a geometric parameter identifiable that
+the geometry alone could not identify. Reported too: the observability index
+O1 = (s_1 ... s_m)^(1/m) / sqrt(M) (Borm & Menq), directions no parameter can
+carry, such as the overall scale of a network, and, at the solution, the
+condition number and the flat directions of the scaled base Jacobian.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg
 
 from armcal.kinematics.params import ParameterSet
 
-RANK_TOLERANCE = 1e-7  # |R_kk| / |R_00| below which a pivoted column adds nothing new
+RANK_TOLERANCE = 1e-7  # norm of a unit column's part the columns chosen before it leave, below which it adds nothing
+PRIORITY = ("device", "target", "chain")  # who carries a redundancy: the instrument and the targets before the robot
+FLAT_RATIO = 1e-3  # s_k / s_1 of the scaled base Jacobian below which a direction is reported as flat
 
 
 @dataclass(frozen=True)
@@ -35,45 +53,120 @@ class Identifiability:
 
 
 def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identifiability:
-    """Base parameter set among the ``free`` columns of the (weighted) Jacobian J at the nominal."""
+    """Base parameter set among the ``free`` columns of the (weighted) Jacobian J at the design point:
+    the geometric ones by pivoted QR, group by group in PRIORITY order, then the effects' by ``extend``."""
     names = parameters.names
-    fixed = [(n, "fixed in the spec") for n, f in zip(names, free) if not f]
-    columns = np.flatnonzero(free)
+    roles = np.array([e.role for e in parameters.entries])
+    fixed = [(n, held_reason(e)) for n, f, e in zip(names, free, parameters.entries) if not f]
+    columns = np.flatnonzero(free & (roles != "effect"))
     norms = np.linalg.norm(J[:, columns], axis=0)
     scale = np.max(norms) if len(norms) else 1.0
     silent = norms <= 1e-12 * scale
     fixed += [(names[c], "does not affect the measurements") for c in columns[silent]]
-    columns = columns[~silent]
-    scaled = J[:, columns] / norms[~silent]
-    _, R, pivots = scipy.linalg.qr(scaled, mode="economic", pivoting=True)
-    diagonal = np.abs(np.diag(R))
-    rank = int(np.sum(diagonal > RANK_TOLERANCE * diagonal[0])) if len(diagonal) else 0
-    base = columns[pivots[:rank]]
-    for k in range(rank, len(pivots)):
-        fixed.append((names[columns[pivots[k]]], _redundancy(R, rank, k, [names[c] for c in base])))
-    singular = np.linalg.svd(scaled[:, pivots[:rank]], compute_uv=False) if rank else np.zeros(0)
+    columns, scaled = columns[~silent], J[:, columns[~silent]] / norms[~silent]
+    basis, chosen, dependent = np.zeros((len(J), 0)), [], []
+    for role in PRIORITY:
+        group = np.flatnonzero(roles[columns] == role)
+        if not len(group):
+            continue
+        projected = _off(basis, scaled[:, group])
+        Q, R, pivots = scipy.linalg.qr(projected, mode="economic", pivoting=True)
+        rank = int(np.sum(np.abs(np.diag(R)) > RANK_TOLERANCE))  # unit columns: |R_kk| is the new part's norm
+        chosen += list(group[pivots[:rank]])
+        dependent += list(group[pivots[rank:]])
+        basis = np.column_stack([basis, Q[:, :rank]])
+    base = columns[chosen]
+    base_names = [names[c] for c in base]
+    fixed += [(names[columns[k]], _redundancy(scaled[:, chosen], base_names, scaled[:, k])) for k in dependent]
+    rank = len(base)
+    singular = np.linalg.svd(scaled[:, chosen], compute_uv=False) if rank else np.zeros(0)
     condition = float(singular[0] / singular[-1]) if rank else float("inf")
     o1 = float(np.exp(np.mean(np.log(singular))) / np.sqrt(len(J))) if rank else 0.0
-    return Identifiability(
+    geometric = Identifiability(
         n_parameters=len(names),
         rank=rank,
-        base=tuple(names[c] for c in base),
+        base=tuple(base_names),
         fixed=tuple(fixed),
         condition_number=condition,
         observability_o1=o1,
         singular_values=singular,
-        unidentifiable=tuple(_null_directions(J, parameters, free)),
+        unidentifiable=tuple(_null_directions(J, parameters, free & (roles != "effect"))),
     )
+    effects = [names[c] for c in np.flatnonzero(free & (roles == "effect"))]
+    return extend(geometric, J, parameters, effects) if effects else geometric
 
 
-def _redundancy(R: np.ndarray, rank: int, k: int, base_names: list[str]) -> str:
-    """Which base parameters a dependent column is a combination of: R11 x = R12[:, k]."""
-    x = scipy.linalg.solve_triangular(R[:rank, :rank], R[:rank, k]) if rank else np.zeros(0)
-    weight = np.abs(x)
+def _off(basis: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``columns`` projected off the orthonormal ``basis`` (twice: Gram-Schmidt loses orthogonality once)."""
+    rest = columns - basis @ (basis.T @ columns)
+    return rest - basis @ (basis.T @ rest)
+
+
+def held_reason(entry) -> str:
+    """Why a parameter is not free: the spec holds it, or the model does (parallel axes)."""
+    return entry.reason or "fixed in the spec"
+
+
+def extend(design: Identifiability, J: np.ndarray, parameters: ParameterSet, names: list[str]) -> Identifiability:
+    """The design's base set with the effect parameters ``names`` added where the base cannot absorb them.
+
+    Each scaled column (at the design point) is projected off the base columns and the
+    effect columns kept before it; one that keeps no more than RANK_TOLERANCE of its
+    norm is redundant: held at its value, with the base parameters that absorb it.
+    """
+    index = parameters.index
+    base_names = list(design.base)
+    columns = J[:, [index(n) for n in base_names]]
+    scaled = columns / np.maximum(np.linalg.norm(columns, axis=0), 1e-300)
+    basis = np.linalg.qr(scaled)[0] if len(base_names) else np.zeros((len(J), 0))
+    largest = float(np.max(np.linalg.norm(J, axis=0))) if J.size else 0.0
+    fixed = [f for f in design.fixed if f[0] not in names]
+    for name in names:
+        column = J[:, index(name)]
+        norm = float(np.linalg.norm(column))
+        if norm <= 1e-12 * largest:
+            fixed.append((name, "does not affect the measurements"))
+            continue
+        rest = _off(basis, (column / norm)[:, None])[:, 0]
+        if np.linalg.norm(rest) <= RANK_TOLERANCE:
+            fixed.append((name, _redundancy(scaled, base_names, column / norm) + " at the design point"))
+            continue
+        basis = np.column_stack([basis, rest / np.linalg.norm(rest)])
+        scaled = np.column_stack([scaled, column / norm])
+        base_names.append(name)
+    added = len(base_names) - len(design.base)
+    return replace(design, rank=design.rank + added, base=tuple(base_names), fixed=tuple(fixed))
+
+
+def _redundancy(scaled_base: np.ndarray, base_names: list[str], unit: np.ndarray) -> str:
+    """Which base parameters a dependent (unit) column is a combination of: the largest weights of its fit."""
+    weight = np.abs(np.linalg.lstsq(scaled_base, unit, rcond=None)[0]) if base_names else np.zeros(0)
     if not len(weight) or weight.max() == 0:
         return "not identifiable from these data"
     order = [i for i in np.argsort(-weight) if weight[i] >= 0.1 * weight.max()][:4]
     return "redundant with " + ", ".join(base_names[i] for i in order)
+
+
+@dataclass(frozen=True)
+class Conditioning:
+    """The scaled base Jacobian at the solution: its condition number and its flat directions."""
+
+    condition_number: float
+    flat: tuple[dict, ...]  # {ratio: s_k / s_1, parameters: [(name, component)]} for s_k / s_1 < FLAT_RATIO
+
+
+def conditioning(J: np.ndarray, names: list[str]) -> Conditioning:
+    """Condition number of the column-scaled J (base columns) and the directions it barely sees."""
+    if not J.shape[1]:
+        return Conditioning(float("inf"), ())
+    scaled = J / np.maximum(np.linalg.norm(J, axis=0), 1e-300)
+    _, s, Vt = np.linalg.svd(scaled, full_matrices=False)
+    flat = []
+    for k in np.flatnonzero(s < FLAT_RATIO * s[0]):
+        v = Vt[k]
+        order = [i for i in np.argsort(-np.abs(v)) if abs(v[i]) >= 0.1][:6]
+        flat.append({"ratio": float(s[k] / s[0]), "parameters": [(names[i], float(v[i])) for i in order]})
+    return Conditioning(float(s[0] / s[-1]) if s[-1] > 0 else float("inf"), tuple(flat))
 
 
 def _null_directions(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> list[str]:

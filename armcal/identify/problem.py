@@ -11,7 +11,7 @@ call, not constants of a graph, and the weighting is done in numpy on its output
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
@@ -22,7 +22,7 @@ from armcal.devices.theodolite import BAR_LENGTH, TheodoliteModel
 from armcal.effects.model import EffectSet, extras_matrix
 from armcal.identify.compiled import compiled
 from armcal.kinematics.compiler import KinematicModel
-from armcal.kinematics.params import ParameterInfo, ParameterSet
+from armcal.kinematics.params import ParameterSet
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ class Residual:
 
 @dataclass(frozen=True)
 class Problem:
-    parameters: ParameterSet  # robot then device parameters
+    parameters: ParameterSet  # robot, device, then effect parameters
     n_robot: int
     blocks: tuple["KeyBlock", ...]  # the samples of each key, in the order of the residuals
     residuals: Residual
@@ -130,8 +130,9 @@ class BufferedCall:
 
 
 def combined_parameters(kinematics: KinematicModel, device: DeviceModel, effects: EffectSet = EffectSet()) -> ParameterSet:
-    """theta's parameters: the robot's, the device's, the effects'."""
-    return ParameterSet(kinematics.parameters.entries + device.parameters.entries + effects.parameters.entries)
+    """theta's parameters: the robot's, the device's (role "device"), the effects'."""
+    instrument = tuple(replace(e, role="device") for e in device.parameters.entries)
+    return ParameterSet(kinematics.parameters.entries + instrument + effects.parameters.entries)
 
 
 def _value_and_jacobian(kinematics: KinematicModel, device: DeviceModel, effects: EffectSet, key: Key) -> ca.Function:
@@ -194,5 +195,5 @@ def build_problem(
 def with_values(parameters: ParameterSet, values: np.ndarray) -> ParameterSet:
     """The same parameters with new nominal values (e.g. identified ones)."""
     return ParameterSet(
-        tuple(ParameterInfo(e.name, e.kind, float(v), e.free, e.lower, e.upper) for e, v in zip(parameters.entries, values))
+        tuple(replace(e, nominal=float(v)) for e, v in zip(parameters.entries, values))
     )

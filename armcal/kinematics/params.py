@@ -6,10 +6,11 @@ links), ``tool.rz`` and ``<target>.x``; values are in mm, rad or 1.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from armcal.kinematics.parallel import parallel_axes
 from armcal.spec.base import Parameter
 from armcal.spec.robot import RobotBase, SixParameterRobot, joint_kind
 from armcal.units import INTERNAL_UNIT
@@ -43,6 +44,8 @@ class ParameterInfo:
     free: bool
     lower: float | None
     upper: float | None
+    reason: str = ""  # why the model holds a parameter the spec leaves free (e.g. parallel axes)
+    role: str = "chain"  # chain | target (on a link) | device (the instrument's) | effect
 
     @property
     def unit(self) -> str:
@@ -93,16 +96,27 @@ def pose_entries(prefix: str, pose, fields=POSE_FIELDS) -> list[ParameterInfo]:
 
 
 def parameter_set(robot: RobotBase) -> ParameterSet:
-    """All parameters of a spec robot in chain order: base, joints (and links), tool, targets."""
+    """All parameters of a spec robot in chain order: base, joints (and links), tool, targets.
+
+    A ``dh`` joint has Hayati's beta where the spec gives one or its axis is parallel to
+    the next (kinematics/parallel.py), with its d then held."""
     entries = pose_entries("base", robot.base)
     fields = JOINT_FIELDS[robot.convention]  # type: ignore[attr-defined]
+    parallel = {p.joint: p for p in parallel_axes(robot)}
     for i, (name, joint) in enumerate(zip(robot.joint_names(), robot.joints), start=1):  # type: ignore[attr-defined]
         if isinstance(robot, SixParameterRobot):
             entries += pose_entries(f"L{i}", robot.links[i - 1], LINK_FIELDS)
-        entries += [parameter_entry(f"{name}.{f}", field_kind(f, joint.type), getattr(joint, f)) for f in fields]
+        joint_entries = [parameter_entry(f"{name}.{f}", field_kind(f, joint.type), getattr(joint, f)) for f in fields]
+        if robot.convention == "dh" and (joint.beta is not None or i in parallel):
+            beta = joint.beta if joint.beta is not None else Parameter(value=0.0)
+            joint_entries.append(parameter_entry(f"{name}.beta", "angle", beta))
+        if i in parallel and parallel[i].d_held:
+            d = fields.index("d")
+            joint_entries[d] = replace(joint_entries[d], free=False, reason=parallel[i].reason)
+        entries += joint_entries
     if isinstance(robot, SixParameterRobot):
         entries += pose_entries(f"L{robot.dof + 1}", robot.links[robot.dof], LINK_FIELDS)
     entries += pose_entries("tool", robot.tool)
     for name, target in robot.targets.items():
-        entries += pose_entries(name, target)
+        entries += [replace(e, role="target") for e in pose_entries(name, target)]
     return ParameterSet(tuple(entries))

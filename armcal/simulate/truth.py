@@ -53,7 +53,8 @@ class TrueRobot:
     def from_record(kinematics: KinematicModel, record: dict) -> "TrueRobot":
         """The robot described by truth.json (as written by ``describe``)."""
         effects = EffectSet(tuple(_effect(e) for e in record["hidden_effects"]))
-        p = np.array([record["parameters"][name] for name in kinematics.parameters.names])
+        recorded = record["parameters"]  # a parameter the model has and the record lacks (Hayati's beta) is at its nominal
+        p = np.array([recorded.get(e.name, e.nominal) for e in kinematics.parameters.entries])
         return TrueRobot(kinematics, p, np.array(record["link_errors"]), np.array(record["encoder_errors"]), effects)
 
     def target_poses(self, name: str, Q: np.ndarray, extras: dict) -> np.ndarray:

@@ -104,12 +104,17 @@ class DHJoint(JointBase):
     d: LengthParam
     a: LengthParam
     alpha: AngleParam
+    beta: AngleParam | None = Field(
+        None,
+        description="Hayati's tilt Rot(y, beta) after Rot(x, alpha), for an axis parallel to the next one; "
+        "left out, it is added (free, at 0) wherever the two axes are parallel, and d is then held",
+    )
 
 
 class MDHJoint(DHJoint):
     """Hayati's modified DH joint: (2.9) followed by Rot(y, beta); use d fixed at 0 for near-parallel axes."""
 
-    beta: AngleParam = fixed(0.0)
+    beta: AngleParam = Field(fixed(0.0), description="Hayati's tilt Rot(y, beta) after Rot(x, alpha)")
 
 
 class SModelJoint(JointBase):

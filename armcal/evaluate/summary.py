@@ -10,6 +10,7 @@ from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
 from armcal.evaluate.residuals import before_after, improvement, readings_residuals, residual_unit
 from armcal.identify.uncertainty import residual_stats
+from armcal.kinematics.parallel import parallel_axes
 from armcal.results.build import build_results, parameter_rows
 from armcal.results.model import Results
 from armcal.spec import LoadedSpec
@@ -52,9 +53,15 @@ def summarize(
             "rank": ident.rank,
             "free": list(ident.base),
             "fixed": [{"name": n, "reason": r} for n, r in ident.fixed if n in names],
-            "condition_number": ident.condition_number,
+            "condition_number": result.conditioning.condition_number,
             "observability_o1": ident.observability_o1,
             "unidentifiable": list(ident.unidentifiable),
+            "design_point": _design_point(identified, start, problem),
+            "flat_directions": list(result.conditioning.flat),
+            "parallel_axes": [
+                {"joints": (p.joint, p.joint + 1), "added": f"{p.name}.beta" if p.beta_added else None, "held": f"{p.name}.d" if p.d_held else None}
+                for p in parallel_axes(spec.robot)
+            ],
         },
         parameters=parameter_rows(loaded, [e for e, _, _ in entries], np.array([v for _, v, _ in entries]), np.array([s for _, _, s in entries]), identified_names),
         residuals={"calibration": calibration_pair, "validation": validation_pair},
@@ -72,7 +79,7 @@ def summarize(
             "method": identified.method,
             "iterations": result.solver.iterations,
             "reason": result.solver.reason if identified.features is None else (
-                f"closed-form feature identification (Stone 4.3); least squares started from it: {result.solver.reason}"
+                f"closed-form feature identification (Stone 4.3); least squares beside it, from the spec's start: {result.solver.reason}"
             ),
             "loss": spec.fit.loss,
             "outliers": sorted(int(r) for r in set(np.asarray(outliers).tolist())),
@@ -81,6 +88,13 @@ def summarize(
         correlations=[list(c) for c in uncertainty.correlations],
         campaign=measured,
     )
+
+
+def _design_point(identified, start: np.ndarray, problem) -> str:
+    """Where the base set was decided: the features' model, the registered start or the nominal."""
+    if identified.features is not None:
+        return "Stone's feature identification"
+    return "nominal, instrument registered" if not np.array_equal(start, problem.parameters.nominal) else "nominal"
 
 
 def _changed(problem, theta: np.ndarray) -> set[str]:

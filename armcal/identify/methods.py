@@ -1,4 +1,4 @@
-"""The identification method a spec asks for: least squares, or Stone's features (then least squares from them)."""
+"""The identification method a spec asks for: least squares, or Stone's features (with the least-squares fit beside them)."""
 
 from __future__ import annotations
 
@@ -37,5 +37,5 @@ def identify_parameters(spec: Spec, problem: Problem, raw: Measurements, start: 
         return Identified(result.theta, result.std, result)
     points = device_model(spec, "points").prepare(raw)
     theta, found = feature_parameters(spec, points, problem.parameters)
-    compared = fit(problem, spec.fit, start=theta)  # the full least-squares fit, started from the features
+    compared = fit(problem, spec.fit, start=start)  # the full least-squares fit beside them, from the spec's start
     return Identified(theta, np.full(len(theta), np.nan), compared, found, theta)

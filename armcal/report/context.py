@@ -161,6 +161,20 @@ def _plots(results: dict, svgs: dict[str, str]) -> list[dict]:
     return plots
 
 
+def _flat_direction(flat: dict) -> str:
+    """A flat direction in words: how flat (s_k / s_1) and the parameters it moves."""
+    moved = ", ".join(f"{name} {component:+.2f}" for name, component in flat["parameters"])
+    return f"singular value {flat['ratio']:.2g} of the largest, along {moved}"
+
+
+def _parallel_note(axes: dict) -> str:
+    """How a pair of parallel dh axes is modelled: Hayati's beta added, d held."""
+    i, j = axes["joints"]
+    done = [f"Hayati's {axes['added']} added"] if axes["added"] else []
+    done += [f"{axes['held']} held"] if axes["held"] else []
+    return f"axes {i} and {j} parallel" + (": " + ", ".join(done) if done else "")
+
+
 def certificate_context(results: dict, plots: dict[str, str]) -> dict:
     """Every value the template shows, as text; ``plots`` (name -> SVG) as data URIs."""
     report, spec, robot, campaign = results["report"], results["spec"], results["robot"], results["campaign"]
@@ -195,6 +209,9 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
             "fixed": [(f["name"], f["reason"]) for f in identifiability["fixed"] if f["reason"] != "fixed in the spec"],
             "spec_fixed": str(sum(1 for f in identifiability["fixed"] if f["reason"] == "fixed in the spec")),
             "unidentifiable": ", ".join(identifiability["unidentifiable"]) or "none",
+            "design_point": identifiability.get("design_point", "nominal"),
+            "flat": [_flat_direction(f) for f in identifiability.get("flat_directions", [])],
+            "parallel": [_parallel_note(p) for p in identifiability.get("parallel_axes", [])],
         },
         "unit": results["device"]["unit"],
         "parameters": _parameter_rows(results),

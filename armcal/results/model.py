@@ -39,14 +39,32 @@ class FixedParameter(_Frozen):
     reason: str
 
 
+class FlatDirection(_Frozen):
+    """A direction of the base parameters the data barely see, at the solution."""
+
+    ratio: float  # its singular value over the largest, column-scaled Jacobian
+    parameters: list[tuple[str, float]]  # the parameters it moves most, with their components
+
+
+class ParallelAxesInfo(_Frozen):
+    """Consecutive parallel axes of a dh chain and how they are modelled (kinematics/parallel.py)."""
+
+    joints: tuple[int, int]
+    added: str | None  # Hayati's beta added by armcal
+    held: str | None  # the d held instead
+
+
 class IdentifiabilityInfo(_Frozen):
     n_parameters: int
     rank: int
     free: list[str]
     fixed: list[FixedParameter]
-    condition_number: float
+    condition_number: float  # column-scaled base Jacobian at the solution
     observability_o1: float
     unidentifiable: list[str]
+    design_point: str = "nominal"  # where the base set was decided
+    flat_directions: list[FlatDirection] = []
+    parallel_axes: list[ParallelAxesInfo] = []
 
 
 class ParameterResult(_Frozen):

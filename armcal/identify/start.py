@@ -4,7 +4,9 @@ A laser tracker can stand anywhere: its transform to the robot base is unknown
 by metres and tens of degrees, far outside what Levenberg-Marquardt recovers
 from zero. When that transform is free, it starts at the rigid registration
 (Kabsch / SVD) of the nominal model's target positions onto the measured ones;
-components the spec holds (vary: false) keep their values.
+components the spec holds (vary: false) keep their values. A spec whose
+transform already explains the data better than the registration (a calibrated
+spec, which carries the fitted transform) starts from its own values.
 """
 
 from __future__ import annotations
@@ -42,8 +44,9 @@ def starting_values(problem: Problem, kinematics: KinematicModel, device: Device
     for key, rows in data.groups().items():
         nominal.append(kinematics.target_poses(key[0], data.q[rows])[:, :3, 3])
         measured.append(np.stack([data.readings[c][rows] for c in "xyz"], axis=1))
-    registered = rigid_registration(np.concatenate(nominal), np.concatenate(measured))
-    for field, value in zip(POSE, pose_from_matrix(registered)):
+    registered = theta.copy()
+    for field, value in zip(POSE, pose_from_matrix(rigid_registration(np.concatenate(nominal), np.concatenate(measured)))):
         if f"robot_base.{field}" in free:  # a component the spec holds keeps its value
-            theta[names.index(f"robot_base.{field}")] = value
-    return theta
+            registered[names.index(f"robot_base.{field}")] = value
+    cost = lambda t: float(np.sum(problem.evaluate(t)[0] ** 2))  # noqa: E731
+    return registered if cost(registered) < cost(theta) else theta

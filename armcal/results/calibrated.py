@@ -1,8 +1,12 @@
-"""calibrated.yaml: the input spec with the identified values written in, comments kept.
+"""calibrated.yaml: the input spec with the fitted model written in, comments kept.
 
 The spec is edited with ruamel's round-trip loader, so its layout and comments
-stay; each identified parameter's value is replaced (in the spec's units), data
-paths are re-pointed from the output folder, and a header comment says where
+stay. Every value the fitted model uses is written (in the spec's units, to 15
+significant digits): the identified ones, and those the fit held at a start value
+other than the spec's (the instrument registration, Hayati's beta). A parameter
+the spec leaves free but the fit held (redundant at the design point) is written
+with ``vary: false``, so the calibrated spec reproduces the fit and its base set.
+Data paths are re-pointed from the output folder, and a header comment says where
 the values came from.
 """
 
@@ -20,7 +24,7 @@ from armcal.effects.library import from_spec, to_spec_dict
 from armcal.spec.model import Spec
 from armcal.units import from_internal
 
-SIGNIFICANT = 10
+SIGNIFICANT = 15  # a 2 m transform to 2e-12 mm: the readings reproduced far below any noise
 
 
 def yaml_path(name: str, spec: Spec) -> list:
@@ -53,7 +57,8 @@ def yaml_path(name: str, spec: Spec) -> list:
     return [*device[first], field]
 
 
-def _set(root: CommentedMap, path: list, value: float) -> None:
+def _set(root: CommentedMap, path: list, value: float, held: bool = False) -> None:
+    """Write a value at ``path``; ``held``: as {value, vary: false}."""
     node = root
     for part in path[:-1]:
         node = node[part]
@@ -61,6 +66,12 @@ def _set(root: CommentedMap, path: list, value: float) -> None:
     current = node.get(last) if isinstance(node, dict) else None
     if isinstance(current, dict):
         current["value"] = value
+        if held:
+            current["vary"] = False
+    elif held:
+        entry = CommentedMap([("value", value), ("vary", False)])
+        entry.fa.set_flow_style()
+        node[last] = entry
     else:
         node[last] = value
 
@@ -68,21 +79,21 @@ def _set(root: CommentedMap, path: list, value: float) -> None:
 def calibrated_yaml(
     spec_text: str,
     spec: Spec,
-    identified: dict[str, tuple[float, str]],
+    identified: dict[str, tuple[float, str, bool]],
     source: Path,
     out_dir: Path,
     note: str,
     added_effects: list = (),
 ) -> str:
-    """The spec text with ``identified`` {name: (internal value, kind)} written in, and the effects
+    """The spec text with ``identified`` {name: (internal value, kind, held)} written in, and the effects
     the diagnosis added [(EffectSpec, {field: (internal value, kind)})] appended to ``effects:``."""
     yaml = YAML(typ="rt")
     yaml.preserve_quotes = True
     yaml.width = 4096  # keep flow-style rows on one line as the user wrote them
     root = yaml.load(spec_text)
     shown = lambda value, kind: float(f"{from_internal(value, kind, spec.robot.units.of(kind)):.{SIGNIFICANT}g}")  # noqa: E731
-    for name, (value, kind) in identified.items():
-        _set(root, yaml_path(name, spec), shown(value, kind))
+    for name, (value, kind, held) in identified.items():
+        _set(root, yaml_path(name, spec), shown(value, kind), held)
     if added_effects:
         effects = root.setdefault("effects", CommentedSeq())
         for effect, values in added_effects:
@@ -99,16 +110,25 @@ def calibrated_yaml(
 
 
 def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
-    """calibrated.yaml of a run: identified values written in, added effects appended."""
+    """calibrated.yaml of a run: the fitted model's values written in, added effects appended."""
     problem, theta = calibrated.problem, calibrated.identified.theta
-    kinds = {e.name: e.kind for e in problem.parameters.entries}
+    index = problem.parameters.index
     added = calibrated.diagnosis.added if calibrated.diagnosis else []
     added_names = {p.name for e in added for p in e.parameters()}
-    values = {r.name for r in results.parameters if r.free and r.name not in added_names}
-    identified = {name: (float(theta[problem.parameters.index(name)]), kinds[name]) for name in values}
-    new_effects = [(e, {p.name.rsplit(".", 1)[1]: (float(theta[problem.parameters.index(p.name)]), p.kind) for p in e.parameters()}) for e in added]
+    base = set(calibrated.identified.least_squares.identifiability.base)
+    reported = {r.name for r in results.parameters} - added_names
+    identified, held = {}, []
+    for entry, value in zip(problem.parameters.entries, theta):
+        if entry.name not in reported:
+            continue
+        redundant = entry.role != "effect" and entry.free and entry.name not in base and calibrated.identified.features is None
+        if value != entry.nominal or entry.name in base or redundant:
+            identified[entry.name] = (float(value), entry.kind, redundant)
+        held += [entry.name] if redundant else []
+    new_effects = [(e, {p.name.rsplit(".", 1)[1]: (float(theta[index(p.name)]), p.kind) for p in e.parameters()}) for e in added]
     note = (
         f"Calibrated by armcal {__version__} on {results.created} from {loaded.path.name} "
         f"(sha256 {loaded.sha256[:12]}), status {results.status}."
+        + (f"\nHeld (vary: false) as the fit held them, not identifiable at the design point: {', '.join(held)}." if held else "")
     )
     return calibrated_yaml(loaded.text, loaded.spec, identified, loaded.path, out_dir, note, new_effects)

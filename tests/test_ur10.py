@@ -5,8 +5,10 @@ import sys
 
 import pytest
 from conftest import ROOT, SHARED_DATA, SPECS
+from round_trip import round_trip
 
 from armcal.pipeline import run
+from armcal.spec import load_spec
 
 SERIES = SHARED_DATA / "ipa-robot-accuracy"
 pytestmark = pytest.mark.skipif(not SERIES.exists(), reason="../shared/data/ipa-robot-accuracy is not beside this checkout")
@@ -30,7 +32,13 @@ def test_fit_series_c_validate_on_series_b(tmp_path):
     _import(tmp_path, "B", "B.csv")
     _spec(tmp_path, "data: {calibration: C.csv, validation: B.csv}\n")
     results = run(tmp_path / "spec.yaml", tmp_path / "out").results
-    assert results.status == "converged"
+    assert results.status == "converged" and results.solver.iterations < 20
+    # Hayati's beta on the three parallel axes: a well-conditioned problem, no d sliding along the axes
+    assert results.identifiability.condition_number < 1e3
+    assert {p.held for p in results.identifiability.parallel_axes} == {"shoulder_lift.d", "elbow.d"}
+    values = {p.name: p for p in results.parameters}
+    assert all(values[n].value == values[n].nominal for n in ("shoulder_lift.d", "elbow.d"))
+    assert results.residuals.validation.after.rms < 0.89  # mm; 0.886 with the condition number at 3.7e6
     assert results.residuals.calibration.before.rms > 2.0  # mm: the nominal UR10, after registration
     assert results.residuals.calibration.after.rms < 0.5
     assert results.improvement_factor.validation > 2.5
@@ -46,3 +54,15 @@ def test_validate_on_series_d_with_the_moved_tracker(tmp_path):
     results = run(tmp_path / "spec.yaml", tmp_path / "out").results
     validation = results.residuals.validation
     assert validation.before.rms < 1.5 and validation.after.rms < validation.before.rms  # registered, not metres off
+
+
+def test_the_calibrated_spec_reproduces_the_fit(tmp_path):
+    """calibrated.yaml carries every value the fitted model uses, the tracker's registration included."""
+    _import(tmp_path, "C", "C.csv")
+    _import(tmp_path, "B", "B.csv")
+    _spec(tmp_path, "data: {calibration: C.csv, validation: B.csv}\n")
+    first, _ = round_trip(tmp_path / "spec.yaml", tmp_path / "out")
+    held = {f.name: f.reason for f in first.identifiability.fixed}
+    assert held["shoulder_pan.theta"] == "redundant with robot_base.rz"  # the tracker's pose carries joint 1's zero
+    calibrated = load_spec(tmp_path / "out" / "calibrated.yaml").spec
+    assert not calibrated.robot.joints[0].theta.vary and calibrated.device.robot_base.rz.vary

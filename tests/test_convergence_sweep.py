@@ -6,18 +6,23 @@ arm (axes 2-4 parallel), each with a laser tracker and with a ball-bar; the true
 robots have manufacturing errors, tilts between the parallel axes, and one hidden
 effect of 2-5 noise sigmas. armcal fits and diagnoses each one as `armcal run` does.
 Oracle for the fit: scipy's least_squares on the same free set from the same start
-reaches the same cost (to 1e-6 relative); held parameters never move.
+reaches the same cost (to 1e-6 relative); held parameters never move; the
+calibrated.yaml written from the fit predicts every reading as the fit does.
 """
 
 import numpy as np
 import pytest
 import scipy.optimize
 from independent_sim import write_campaign
+from round_trip import starting_residuals
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
 from armcal.diagnose.stage import identify_and_diagnose
+from armcal.evaluate.summary import summarize
 from armcal.kinematics.compiler import compile_robot
+from armcal.results.calibrated import calibrated_text
+from armcal.results.campaign import campaign
 from armcal.spec import load_spec
 
 PER_PAIR = 25
@@ -25,13 +30,20 @@ EFFECTS = {"tracker": ("gear_harmonic", "encoder_scale", "joint_compliance"), "b
 
 
 def calibrate(spec_path):
-    """The stages of `armcal run` up to the diagnosis' final fit."""
-    spec = load_spec(spec_path).spec
+    """The stages of `armcal run` up to the diagnosis' final fit, and the calibrated.yaml it writes."""
+    loaded = load_spec(spec_path)
+    spec = loaded.spec
     kinematics = compile_robot(spec.robot)
     device = device_model(spec, spec.fit.sonic_readings)
     raw = read_measurements(spec_path.parent / spec.data.calibration, spec)
+    calibration = device.prepare(raw)
     validation = device.prepare(read_measurements(spec_path.parent / spec.data.validation, spec))
-    return identify_and_diagnose(spec, kinematics, device, raw, device.prepare(raw), validation)
+    calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
+    results = summarize(loaded, calibrated, calibration.rows, {}, {}, [], campaign(loaded, calibration, validation))
+    out = spec_path.parent / "out"
+    out.mkdir()
+    (out / "calibrated.yaml").write_text(calibrated_text(loaded, results, calibrated, out))
+    return calibrated, out / "calibrated.yaml"
 
 
 def scipy_cost(problem, start, base) -> float:
@@ -69,10 +81,11 @@ def campaign_outcome(folder, robot: str, device: str, k: int) -> dict:
     sigmas = 2.0 + 3.0 * ((0.618034 * (k + 1)) % 1.0)
     # a ball-bar's refit geometry absorbs 65-97 % of a harmonic's signature: there the part it cannot absorb is scaled
     info = write_campaign(folder, robot, device, effect, seed=1000 + k, sigmas=sigmas, visible=device == "ballbar")
-    calibrated = calibrate(info["spec"])
+    calibrated, written = calibrate(info["spec"])
     result = calibrated.identified.least_squares
     start = calibrated.start
     held = np.setdiff1d(np.arange(len(start)), result.base)
+    fitted = calibrated.problem.evaluate(result.theta)[0]
     return {
         "converged": result.solver.converged,
         "reason": result.solver.reason,
@@ -81,6 +94,7 @@ def campaign_outcome(folder, robot: str, device: str, k: int) -> dict:
         "cost": result.solver.cost,
         "scipy": scipy_cost(calibrated.problem, start, result.base),
         "held_moved": bool(np.any(result.theta[held] != start[held])),
+        "round_trip": float(np.max(np.abs(starting_residuals(written) - fitted))),  # noise sigmas
         "added": len(calibrated.diagnosis.added),
         "found": found(calibrated.diagnosis, info["effect"], order=False),
         "exact": found(calibrated.diagnosis, info["effect"], order=True),
@@ -97,6 +111,7 @@ def test_every_campaign_converges_to_scipys_minimum(tmp_path, robot, device):
     for k, o in enumerate(outcomes):
         assert o["cost"] == pytest.approx(o["scipy"], rel=1e-6), (k, o)
         assert not o["held_moved"], k
+        assert o["round_trip"] < 1e-6, (k, o)  # calibrated.yaml predicts every reading as the fit does
     hits, exact = sum(o["found"] for o in outcomes), sum(o["exact"] for o in outcomes)
     assert hits >= PER_PAIR - 2, [(k, o["effect"]) for k, o in enumerate(outcomes) if not o["found"]]
     assert exact >= PER_PAIR - 5  # on ball-bar shells harmonics of one joint's neighbouring orders look alike

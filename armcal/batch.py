@@ -1,21 +1,28 @@
 """``armcal batch``: calibrate a fleet, one spec and one certificate each, on a process pool or a Dask cluster.
 
 Each spec runs the whole pipeline (pipeline.run) in a worker; a spec with a user
-error is reported and the others go on. The outcome of each is plain data, so
-it crosses process and machine boundaries.
+error, or one that meets an internal error (its traceback kept as its log), is
+reported and the others go on. The outcome of each is plain data, so it crosses
+process and machine boundaries; all of them are written to a fleet summary
+(JSON, and the terminal's table as text).
 """
 
 from __future__ import annotations
 
+import json
+import traceback
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from armcal.errors import UserError
-from armcal.fileio import output_folder
+from armcal.fileio import output_folder, write_text_atomic
 from armcal.parallel import run_tasks
 from armcal.pipeline import default_out_dir, run
+
+
+INTERNAL = 4  # exit code of a fleet in which a spec met an internal error
 
 
 @dataclass(frozen=True)
@@ -32,6 +39,9 @@ def run_job(job: Job) -> dict:
         outcome = run(job.spec, job.out_dir, job.force, job.pdf)
     except UserError as exc:
         return {"spec": str(job.spec), "status": "error", "exit_code": 1, "error": str(exc)}
+    except Exception as exc:  # one robot's internal error must not cost the fleet its other results
+        error = f"internal error: {type(exc).__name__}: {exc}"
+        return {"spec": str(job.spec), "status": "internal_error", "exit_code": INTERNAL, "error": error, "log": traceback.format_exc()}
     results = outcome.results
     validation = results.residuals.validation
     return {
@@ -42,6 +52,8 @@ def run_job(job: Job) -> dict:
         "unit": results.device.unit,
         "calibration_rms": [results.residuals.calibration.before.rms, results.residuals.calibration.after.rms],
         "validation_rms": [validation.before.rms, validation.after.rms] if validation else None,
+        "noise_verdict": results.noise_check.verdict,
+        "unexplained": results.diagnosis.unexplained,
         "out_dir": str(outcome.out_dir),
     }
 
@@ -87,6 +99,19 @@ def batch(
 
 
 def exit_code(outcomes: list[dict]) -> int:
-    """1 if any spec had a user error, else 3 if any fit did not converge, else 0."""
+    """4 if any spec met an internal error, else 1 if any had a user error, else 3 if any fit did not converge, else 0."""
     codes = {outcome["exit_code"] for outcome in outcomes}
-    return 1 if 1 in codes else 3 if 3 in codes else 0
+    return next((code for code in (INTERNAL, 1, 3) if code in codes), 0)
+
+
+def summary_files(out_dir: Path | None) -> list[Path]:
+    """fleet.json and fleet.txt, in --out or else in the current folder."""
+    path = Path(out_dir or ".") / "fleet.json"
+    return [path, path.with_suffix(".txt")]
+
+
+def write_summary(files: list[Path], outcomes: list[dict], table: str) -> None:
+    """fleet.json (every outcome, internal errors with their log) and fleet.txt (the table), each whole."""
+    json_path, text_path = files
+    write_text_atomic(json_path, json.dumps({"specs": len(outcomes), "exit_code": exit_code(outcomes), "outcomes": outcomes}, indent=1) + "\n")
+    write_text_atomic(text_path, table + "\n")

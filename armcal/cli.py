@@ -37,10 +37,14 @@ def user_errors(command: Callable) -> Callable:
 @user_errors
 def validate(spec: SpecArg) -> None:
     """Check a spec; list every problem with file, line, column and field."""
-    from armcal.summary import spec_summary
     from armcal.spec import load_spec
+    from armcal.spec.loader import missing_data_files
+    from armcal.summary import spec_summary
 
-    typer.echo(spec_summary(load_spec(spec)))
+    loaded = load_spec(spec)
+    typer.echo(spec_summary(loaded))
+    for issue in missing_data_files(loaded):
+        typer.echo(f"warning: {issue}", err=True)
 
 
 @app.command()
@@ -77,12 +81,13 @@ def fk(
 def simulate(
     spec: SpecArg,
     out: Annotated[Path, typer.Option("--out", help="Folder for the CSV files and truth.json.")],
+    force: Annotated[bool, typer.Option("--force", help="Replace existing data files and truth.json.")] = False,
 ) -> None:
     """Write the spec's calibration and validation data, measured on a simulated true robot."""
     from armcal.simulate import write_simulation
     from armcal.spec import load_spec
 
-    campaign, written = write_simulation(load_spec(spec), out)
+    campaign, written = write_simulation(load_spec(spec), out, force)
     for path in written:
         typer.echo(f"wrote {path}")
     for name, data in (("calibration", campaign.calibration), ("validation", campaign.validation)):
@@ -98,7 +103,7 @@ def run(
     spec: SpecArg,
     out: Annotated[Path | None, typer.Option("--out", help="Output folder (default: out/<spec stem>/ beside the spec).")] = None,
     no_pdf: Annotated[bool, typer.Option("--no-pdf", help="Skip the PDF certificate.")] = False,
-    force: Annotated[bool, typer.Option("--force", help="Replace an existing certificate.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing certificate and its whole output set.")] = False,
 ) -> None:
     """Identify the robot from the spec's data and write results.json and calibrated.yaml."""
     from armcal.pipeline import run as run_pipeline
@@ -114,11 +119,12 @@ def run(
 def report(
     results: Annotated[Path, typer.Argument(help="A results.json written by armcal run.", show_default=False)],
     no_pdf: Annotated[bool, typer.Option("--no-pdf", help="Write only certificate.html.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Replace the existing certificate.")] = False,
 ) -> None:
     """Render the certificate again from results.json alone (and the plots beside it)."""
     from armcal.report.render import rerender
 
-    for path in rerender(results, pdf=not no_pdf):
+    for path in rerender(results, pdf=not no_pdf, force=force):
         typer.echo(f"wrote {path}")
 
 
@@ -132,7 +138,7 @@ SchedulerOption = Annotated[
 @user_errors
 def montecarlo(
     spec: SpecArg,
-    runs: Annotated[int, typer.Option("--runs", help="Simulated robots per point (Stone used 500).", min=2)] = 500,
+    runs: Annotated[int, typer.Option("--runs", help="Simulated robots per point (Stone used 500).", min=2, max=100_000)] = 500,
     sweep: Annotated[
         list[str] | None,
         typer.Option("--sweep", help="Vary one input: noise_factor=1,2,5,10 | points_per_joint=20,40,60,80,100 | target_radius=30,40,50 | sigma_e=0.1,0.3,0.5 (spec units)."),
@@ -173,13 +179,18 @@ def batch(
     workers: WorkersOption = None,
     scheduler: SchedulerOption = None,
 ) -> None:
-    """Calibrate a fleet: run every spec (one certificate each) in parallel; exit 1 if any spec failed."""
-    from armcal.batch import batch as run_batch, exit_code
+    """Calibrate a fleet: run every spec (one certificate each) in parallel; exit 1 if any spec failed, 4 on an internal error."""
+    from armcal.batch import batch as run_batch, exit_code, summary_files, write_summary
+    from armcal.fileio import refuse_replacing
     from armcal.summary import batch_summary
 
+    summary = summary_files(out)
+    refuse_replacing(summary, specs, force)  # before the fleet's work, not after it
     with _progress_bar("specs") as show:
         outcomes = run_batch(specs, out, force, not no_pdf, workers, scheduler, show)
-    typer.echo(batch_summary(outcomes))
+    table = batch_summary(outcomes)
+    write_summary(summary, outcomes, table)
+    typer.echo(table + f"\n  wrote {', '.join(str(p) for p in summary)}")
     raise typer.Exit(exit_code(outcomes))
 
 
@@ -190,16 +201,22 @@ def import_ipa(
     source: Annotated[Path, typer.Argument(help="An ipa-robot-accuracy measurements file (';', decimal commas).")],
     out: Annotated[Path, typer.Option("--out", help="The contract CSV to write.")],
     target: Annotated[str, typer.Option(help="The robot target the tracker measured.")] = "tmac",
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing data file.")] = False,
 ) -> None:
     """Convert a public UR10 laser-tracker series into a data file of the spec (its units)."""
     from armcal.dataio.ipa import read_ipa
     from armcal.dataio.writer import write_measurements
+    from armcal.fileio import refuse_replacing
     from armcal.spec import load_spec
 
+    refuse_replacing([out], [spec, source], force)
     loaded = load_spec(spec)
     if target not in loaded.spec.robot.targets:
         raise UserError(f"{spec}: the robot has no target '{target}'")
-    measurements = read_ipa(source, target)
+    device = loaded.spec.device
+    if device.type != "tracker" or target not in device.targets:
+        raise UserError(f"{spec}: the ipa-robot-accuracy files are laser-tracker readings of one target; the spec's device must be a tracker measuring '{target}'")
+    measurements = read_ipa(source, target, device.orientation)
     write_measurements(out, measurements, loaded.spec)
     typer.echo(f"wrote {out}: {len(measurements)} samples")
 

@@ -1,12 +1,53 @@
-"""Output files are written whole or not at all: to a temporary file, then renamed."""
+"""Input files are read bounded, from ordinary files only; output files are written whole or not at all.
+
+A spec may name regular files anywhere it can read, except under /proc, /sys and
+/dev (pseudo-files that read as endless streams, devices or the process's own
+environment); each kind of input has a size limit (INPUT_LIMITS), checked before
+it is read, so /dev/zero, a FIFO or a runaway file ends with a clear error.
+"""
 
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
 from armcal.errors import UserError
+
+
+KiB, MiB = 1 << 10, 1 << 20
+INPUT_LIMITS = {"spec": 256 * KiB, "data": 64 * MiB, "truth": 16 * MiB, "results": 16 * MiB}  # a spec parses at ~50 KiB/s at worst
+PSEUDO_FILE_SYSTEMS = (Path("/proc"), Path("/sys"), Path("/dev"))
+
+
+def read_input(path: Path, kind: str) -> bytes:
+    """The bytes of an input file of ``kind`` (INPUT_LIMITS): a regular file, not a pseudo-file, within its limit."""
+    path = Path(path)
+    what = f"{path}: cannot read the {kind} file"
+    resolved = path.resolve()
+    for root in PSEUDO_FILE_SYSTEMS:
+        if resolved == root or root in resolved.parents:
+            raise UserError(f"{what}: it lies under {root}, which holds no input files")
+    try:
+        with open(path, "rb", opener=lambda name, flags: os.open(name, flags | os.O_NONBLOCK)) as stream:
+            info = os.fstat(stream.fileno())
+            if not stat.S_ISREG(info.st_mode):
+                raise UserError(f"{what}: it is not a regular file")
+            limit = INPUT_LIMITS[kind]
+            if info.st_size > limit:
+                raise UserError(f"{what}: it has {_size(info.st_size)}, more than the {_size(limit)} a {kind} file may have")
+            return stream.read(limit + 1)[:limit]
+    except FileNotFoundError:
+        raise UserError(f"{what}: there is no such file") from None
+    except IsADirectoryError:
+        raise UserError(f"{what}: it is a folder") from None
+    except OSError as exc:
+        raise UserError(f"{what} ({exc.strerror or exc})") from None
+
+
+def _size(count: int) -> str:
+    return f"{count / MiB:.3g} MiB" if count >= MiB else f"{count / KiB:.3g} KiB"
 
 
 def output_folder(path: Path) -> Path:
@@ -16,6 +57,16 @@ def output_folder(path: Path) -> Path:
     if blocked is not None:
         raise UserError(f"{blocked} is a file; the output needs a folder there")
     return path
+
+
+def refuse_replacing(targets, inputs, force: bool) -> None:
+    """Nothing existing is replaced without ``force``, and an input of the command never is."""
+    sources = {Path(p).resolve() for p in inputs}
+    for target in map(Path, targets):
+        if target.resolve() in sources:
+            raise UserError(f"{target} is an input of this command; it is never replaced (choose another --out)")
+        if target.exists() and not force:
+            raise UserError(f"{target} exists; use --force to replace it")
 
 
 def write_text_atomic(path: Path, text: str) -> None:
@@ -31,14 +82,15 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
     try:
         with os.fdopen(handle, "wb") as stream:
             stream.write(data)
-        os.chmod(temporary, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual mode
+        os.chmod(temporary, 0o666 & ~current_umask())  # mkstemp makes 0600; give the usual mode
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
 
 
-def _umask() -> int:
+def current_umask() -> int:
+    """The process's umask (read by setting it and back)."""
     mask = os.umask(0)
     os.umask(mask)
     return mask

@@ -9,6 +9,7 @@ task must be a picklable top-level function and its arguments.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
@@ -30,8 +31,7 @@ def run_tasks(
     """[function(task) for task in tasks], run in parallel; ``scheduler`` is a Dask scheduler's address."""
     report = progress or (lambda result: None)
     if scheduler is not None:
-        if not scheduler.strip():
-            raise UserError("--scheduler needs an address, e.g. tcp://10.0.0.5:8786")
+        check_scheduler_address(scheduler)
         return _on_dask(function, tasks, scheduler, report)
     workers = min(workers or default_workers(), len(tasks))
     if workers <= 1:
@@ -51,6 +51,16 @@ def run_tasks(
             pool.shutdown(cancel_futures=True)  # a failed task stops the rest at once
             raise
     return results
+
+
+SCHEDULER_ADDRESS = re.compile(r"(?:(?:tcp|tls|ws|wss)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?):(\d{1,5})")
+
+
+def check_scheduler_address(scheduler: str) -> None:
+    """A Dask scheduler address [protocol://]host:port, refused at once when it is not one."""
+    match = SCHEDULER_ADDRESS.fullmatch(scheduler.strip())
+    if match is None or not 0 < int(match.group(1)) < 65536:
+        raise UserError(f"--scheduler {scheduler!r} is not a scheduler address; give [tcp://]HOST:PORT, e.g. tcp://10.0.0.5:8786")
 
 
 def _on_dask(function: Callable, tasks: Sequence, scheduler: str, report: Progress) -> list:

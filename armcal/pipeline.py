@@ -6,23 +6,22 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from armcal.dataio.reader import read_measurements
+from armcal.dataio.reader import data_text, read_measurements
 from armcal.devices import device_model
 from armcal.errors import Issue, SpecError, UserError
 from armcal.diagnose.stage import identify_and_diagnose
 from armcal.evaluate.evidence import evidence
 from armcal.evaluate.grid import evaluation_tasks
 from armcal.evaluate.summary import summarize
-from armcal.fileio import output_folder
 from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import draw_plots
-from armcal.report.render import certificate_files, write_files
+from armcal.output_set import output_set, run_id, stamp_svg
+from armcal.report.render import certificate_files
+from armcal.results.model import Results
 from armcal.results.calibrated import calibrated_text
 from armcal.results.campaign import campaign
 from armcal.simulate import find_truth
 from armcal.spec import load_spec
-
-CERTIFICATE_FILES = ("certificate.pdf", "certificate.html")
 
 
 @dataclass(frozen=True)
@@ -41,12 +40,22 @@ def default_out_dir(spec_path: Path) -> Path:
 
 
 def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: bool = True) -> Outcome:
+    """Calibrate the robot of a spec and publish the output set into ``out_dir`` (output_set.py)."""
     loaded = load_spec(spec_path)
-    out_dir = output_folder(out_dir if out_dir is not None else default_out_dir(loaded.path))
-    _refuse_overwrite(out_dir, force)
+    out_dir = out_dir if out_dir is not None else default_out_dir(loaded.path)
     spec = loaded.spec
     if spec.data is None:
         raise UserError(f"{loaded.path}: the spec has no data section; add one (or write data with 'armcal simulate')")
+    folder = loaded.path.parent
+    inputs = [loaded.path, *(folder / f for f in (spec.data.calibration, spec.data.validation) if f)]
+    user_templates = folder / spec.report.template if spec.report.template else None
+    with output_set(out_dir, inputs + ([user_templates] if user_templates else []), force) as publish:
+        return _run(loaded, inputs, user_templates, Path(out_dir), pdf, publish)
+
+
+def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path, pdf: bool, publish) -> Outcome:
+    """The stages in order, then the whole output set published at once."""
+    spec = loaded.spec
     folder = loaded.path.parent
     calibration_path = folder / spec.data.calibration
     kinematics = compile_robot(spec.robot)
@@ -57,18 +66,22 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: 
     for data in filter(None, (calibration, validation)):
         check_readable(device, data)
     calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
-    tasks = evaluation_tasks(spec, kinematics, calibrated, find_truth(calibration_path))
+    truth = find_truth(calibration_path)
+    identifier = run_id(inputs + ([calibration_path.parent / "truth.json"] if truth else []))
+    tasks = evaluation_tasks(spec, kinematics, calibrated, truth)
     found = evidence(loaded, kinematics, calibrated, calibration)
-    plots = draw_plots(found)
-    results = summarize(loaded, calibrated, calibration.rows, tasks, found, list(plots), campaign(loaded, calibration, validation))
-    user_templates = folder / spec.report.template if spec.report.template else None
+    plots = {name: stamp_svg(svg, identifier) for name, svg in draw_plots(found).items()}
+    validation_path = folder / spec.data.validation if spec.data.validation else None
+    simulated = (truth is not None, validation_path is not None and find_truth(validation_path) is not None)
+    measured = campaign(loaded, calibration, validation, simulated)
+    results = summarize(loaded, calibrated, calibration.rows, tasks, found, list(plots), measured).model_copy(update={"run_id": identifier})
     files = {
         "results.json": json.dumps(results.model_dump(mode="json"), indent=2) + "\n",
         "calibrated.yaml": calibrated_text(loaded, results, calibrated, out_dir),
         **plots,
         **certificate_files(results.model_dump(mode="json"), plots, pdf, user_templates),
     }
-    write_files(out_dir, files)  # only now: a failure above leaves the previous artifacts as they were
+    publish(files, identifier)  # only now, all at once: a failure above leaves the previous set as it was
     return Outcome(results, out_dir)
 
 
@@ -81,13 +94,8 @@ def check_readable(device, data) -> None:
 
 def _sonic_mode(spec, calibration_path: Path) -> str:
     """Fit triangulated points when that is all the data file has, else as the spec says."""
-    if spec.device.type != "sonic_digitizer" or not calibration_path.exists():
+    if spec.device.type != "sonic_digitizer":
         return spec.fit.sonic_readings
-    header = calibration_path.read_text(encoding="utf-8-sig").split("\n", 1)[0].split(",")
+    header = [h.strip() for h in data_text(calibration_path).split("\n", 1)[0].split(",")]
     return "points" if "x" in header and not any(h.startswith("s_") for h in header) else spec.fit.sonic_readings
 
-
-def _refuse_overwrite(out_dir: Path, force: bool) -> None:
-    existing = [name for name in CERTIFICATE_FILES if (out_dir / name).exists()]
-    if existing and not force:
-        raise UserError(f"{out_dir / existing[0]} exists; use --force to replace the certificate")

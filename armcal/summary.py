@@ -14,6 +14,15 @@ from armcal.spec.robot import joint_kind
 from armcal.units import from_internal, to_internal
 
 
+NOISE_VERDICTS = {
+    "residuals_too_large": "the residuals exceed the noise model (p < 1 %): check whether the model lacks an effect "
+    "(the diagnosis), whether the declared noise is too small, and whether a parameter the spec holds should be free; "
+    "the uncertainties are scaled by chi2/dof",
+    "residuals_too_small": "the residuals are smaller than the noise model allows (chi2 in its lower 1 %): the declared "
+    "noise is too large, so the uncertainties are overstated; check the device's noise in the spec",
+}
+
+
 def spec_summary(loaded: LoadedSpec) -> str:
     """One paragraph: robot, parameters, device and procedure of a valid spec."""
     spec = loaded.spec
@@ -93,6 +102,8 @@ def run_summary(outcome) -> str:
         val = r.residuals.validation
         lines.append(f"  validation  RMS {val.before.rms:.4g} -> {val.after.rms:.4g} {unit} (x{r.improvement_factor.validation:.3g})")
     lines.append(f"  noise check chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g} (p = {r.noise_check.p_value:.3g})")
+    if r.noise_check.verdict != "consistent":
+        lines.append(f"  {NOISE_VERDICTS[r.noise_check.verdict]}")
     for flat in r.identifiability.flat_directions:
         moved = ", ".join(name for name, _ in flat.parameters)
         lines.append(f"  flat direction at the solution: singular value {flat.ratio:.2g} of the largest, along {moved}")
@@ -134,10 +145,13 @@ def batch_summary(outcomes: list[dict]) -> str:
     """What `armcal batch` prints: one line per spec."""
     lines = [f"{len(outcomes)} specs: {sum(o['exit_code'] == 0 for o in outcomes)} converged"]
     for o in outcomes:
-        if o["status"] == "error":
-            lines.append(f"  {o['spec']}: {o['error']}")
+        if o["status"] in ("error", "internal_error"):
+            lines.append(f"  {o['spec']}: {o['error']}" + (" (traceback in the fleet summary)" if o["status"] == "internal_error" else ""))
             continue
         before, after = o["calibration_rms"]
         held = f", validation {o['validation_rms'][0]:.4g} -> {o['validation_rms'][1]:.4g}" if o["validation_rms"] else ""
-        lines.append(f"  {o['spec']}: {o['robot']} {o['status']}, RMS {before:.4g} -> {after:.4g} {o['unit']}{held}; {o['out_dir']}")
+        unexplained = ", residuals unexplained" if o.get("unexplained") else ""
+        lines.append(f"  {o['spec']}: {o['robot']} {o['status']}{unexplained}, RMS {before:.4g} -> {after:.4g} {o['unit']}{held}; {o['out_dir']}")
+        if o.get("noise_verdict", "consistent") != "consistent":
+            lines.append(f"    {NOISE_VERDICTS[o['noise_verdict']]}")
     return "\n".join(lines)

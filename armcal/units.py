@@ -38,6 +38,10 @@ def factor(kind: str, unit: str) -> float:
     return table[unit]
 
 
+LARGEST = 1e9  # mm or rad: a kilometre a thousand times over; beyond it squares and sums lose all precision
+SMALLEST = 1e-30  # below it a weight 1 / sigma overflows to infinity
+
+
 def to_internal(value: float | int | str, kind: str, default_unit: str) -> float:
     """Convert a spec quantity (number or 'number unit' string) to mm / rad / 1."""
     if isinstance(value, bool):
@@ -53,7 +57,10 @@ def to_internal(value: float | int | str, kind: str, default_unit: str) -> float
         raise ValueError(f"expected a {kind}, got {type(value).__name__}")
     if not math.isfinite(number):
         raise ValueError(f"expected a finite {kind}, got {value!r}")
-    return number * factor(kind, unit)
+    internal = number * factor(kind, unit)
+    if abs(internal) > LARGEST or 0 < abs(internal) < SMALLEST:
+        raise ValueError(f"{value!r} lies outside what armcal computes with: magnitudes {SMALLEST:g} to {LARGEST:g} {INTERNAL_UNIT[kind]}, or 0")
+    return internal
 
 
 def from_internal(value: float, kind: str, unit: str) -> float:

@@ -1,5 +1,8 @@
 """Shared fixtures: paths of the shipped specs and compiled reference robots."""
 
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +14,22 @@ from armcal.spec import load_spec
 ROOT = Path(__file__).resolve().parent.parent
 SPECS = ROOT / "specs"
 SHARED_DATA = ROOT.parent / "shared" / "data"
+
+
+EXAMPLE_DATA = ("spec.yaml", "calibration.csv", "validation.csv")
+
+
+def copy_example(name: str, folder: Path, files: tuple[str, ...] = EXAMPLE_DATA) -> Path:
+    """The files of examples/<name> among ``files`` copied into ``folder`` (tests never write into the repository)."""
+    for file in files:
+        if (ROOT / "examples" / name / file).exists():
+            shutil.copy(ROOT / "examples" / name / file, Path(folder) / file)
+    return Path(folder)
+
+
+def armcal_cli(*args, timeout: float = 300, env: dict | None = None) -> subprocess.CompletedProcess:
+    """`python -m armcal ARGS` from the project's folder, output captured."""
+    return subprocess.run([sys.executable, "-m", "armcal", *map(str, args)], capture_output=True, text=True, cwd=ROOT, timeout=timeout, env=env)
 
 
 def shipped_specs() -> list[Path]:

@@ -47,7 +47,7 @@ def test_a_circle_point_sweep_under_180_degrees_violates_b3(tmp_path):
     folder = _copy(tmp_path, "puma560_sonic")
     text = (folder / "spec.yaml").read_text().replace("limits: [-100, 100]", "limits: [-60, 60]")  # joint 5: 120 deg
     (folder / "spec.yaml").write_text(text.replace("seed: 560", "seed: 560\n  noise: true"))
-    simulate = subprocess.run([sys.executable, "-m", "armcal", "simulate", str(folder / "spec.yaml"), "--out", str(folder)], capture_output=True, text=True, cwd=ROOT)
+    simulate = subprocess.run([sys.executable, "-m", "armcal", "simulate", str(folder / "spec.yaml"), "--out", str(folder), "--force"], capture_output=True, text=True, cwd=ROOT)
     assert simulate.returncode == 0, simulate.stderr
     result = _run(folder)
     assert result.returncode == 1 and "Traceback" not in result.stderr

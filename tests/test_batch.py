@@ -57,7 +57,7 @@ def test_batch_command_line(tmp_path):
     result = subprocess.run(command, capture_output=True, text=True, cwd=ROOT)
     assert result.returncode == 0, result.stderr
     assert "2 specs: 2 converged" in result.stdout
-    assert {p.name for p in tmp_path.iterdir()} == {"goswami_ballbar-spec", "theodolite-spec"}  # both specs are spec.yaml
+    assert {p.name for p in tmp_path.iterdir()} == {"goswami_ballbar-spec", "theodolite-spec", "fleet.json", "fleet.txt"}  # both specs are spec.yaml; the fleet summary
 
 
 def test_an_unreachable_scheduler_is_a_user_error(tmp_path):

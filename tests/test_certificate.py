@@ -9,8 +9,9 @@ import jinja2
 import pytest
 from conftest import ROOT
 
+from armcal.errors import UserError
 from armcal.report.context import certificate_context
-from armcal.report.render import PACKAGED, TemplateFetcher, certificate_files, render_html, write_files
+from armcal.report.render import PACKAGED, TEMPLATE, TemplateFetcher, certificate_files, render_html, write_files
 
 GOLDEN = Path(__file__).parent / "data" / "golden"
 
@@ -30,8 +31,9 @@ def test_golden_html(tmp_path):
 def test_a_missing_value_fails_the_render(tmp_path):
     context = certificate_context(_results(), {})
     del context["unit"]
-    with pytest.raises(jinja2.UndefinedError):
+    with pytest.raises(UserError, match=rf"^{PACKAGED / TEMPLATE}:\d+: 'unit' is undefined$") as failed:
         render_html(context, [PACKAGED])
+    assert isinstance(failed.value.__cause__, jinja2.UndefinedError)
 
 
 def test_injected_markup_prints_as_text_and_reads_no_file(tmp_path, monkeypatch):
@@ -89,5 +91,6 @@ def test_user_templates_are_sandboxed(tmp_path):
     from jinja2.exceptions import SecurityError
 
     (tmp_path / "certificate.html.j2").write_text("{{ number.__class__.__mro__[1].__subclasses__() }}")
-    with pytest.raises(SecurityError):
+    with pytest.raises(UserError, match=r"certificate.html.j2:1: access to attribute '__class__'") as failed:
         render_html(certificate_context(_results(), {}), [tmp_path, PACKAGED])
+    assert isinstance(failed.value.__cause__, SecurityError)

@@ -1,12 +1,11 @@
 """Nothing lost: earlier artifacts survive a failing run, certificates need --force, re-runs are reproducible."""
 
 import json
-import shutil
 import subprocess
 import sys
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, copy_example
 
 from armcal.pipeline import run
 
@@ -15,9 +14,7 @@ EXAMPLE = ROOT / "examples" / "theodolite"
 
 @pytest.fixture()
 def workspace(tmp_path):
-    for name in ("spec.yaml", "calibration.csv", "validation.csv"):
-        shutil.copy(EXAMPLE / name, tmp_path / name)
-    return tmp_path
+    return copy_example("theodolite", tmp_path)
 
 
 def _snapshot(folder):

@@ -14,20 +14,21 @@ from pathlib import Path
 import numpy as np
 
 from armcal.dataio.measurements import Measurements
-from armcal.errors import Issue, SpecError, UserError
+from armcal.dataio.reader import data_text
+from armcal.errors import Issue, SpecError
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
 POSITION = ("measurement_x", "measurement_y", "measurement_z")
 ORIENTATION = ("measurement_rx", "measurement_ry", "measurement_rz")
 
 
-def read_ipa(path: Path, target: str) -> Measurements:
-    """Measurements (internal units) of ``target`` from one ipa-robot-accuracy series file."""
+def read_ipa(path: Path, target: str, orientation: bool) -> Measurements:
+    """Measurements (internal units) of ``target`` from one ipa-robot-accuracy series file
+    (with the probe's orientations when ``orientation``)."""
     path = Path(path)
-    try:
-        rows = list(csv.reader(path.read_text(encoding="utf-8-sig").splitlines(), delimiter=";"))
-    except OSError as exc:
-        raise UserError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    rows = list(csv.reader(data_text(path).splitlines(), delimiter=";"))
+    if not rows:
+        raise SpecError([Issue(path, 1, None, "", "the file is empty; an ipa-robot-accuracy header row is expected")])
     header = [h.strip() for h in rows[0]]
     missing = [c for c in (*JOINTS, "measurement_temperature", *POSITION, *ORIENTATION) if c not in header]
     if missing:
@@ -47,8 +48,9 @@ def read_ipa(path: Path, target: str) -> Measurements:
     data = [row for row in rows[1:] if any(field.strip() for field in row)]
     q = values(JOINTS, data)
     position = values(POSITION, data)
-    orientation = np.radians(values(ORIENTATION, data))
     readings = {name: position[:, i] for i, name in enumerate("xyz")}
-    readings.update({name: orientation[:, i] for i, name in enumerate(("rx", "ry", "rz"))})
+    if orientation:
+        angles = np.radians(values(ORIENTATION, data))
+        readings.update({name: angles[:, i] for i, name in enumerate(("rx", "ry", "rz"))})
     extras = {"temperature": values(("measurement_temperature",), data)[:, 0]}
     return Measurements(keys=tuple((target,) for _ in data), q=q, readings=readings, extras=extras, rows=np.arange(2, len(data) + 2), source=path)

@@ -14,11 +14,13 @@ import numpy as np
 from armcal.dataio.columns import Layout, layout
 from armcal.dataio.measurements import Measurements
 from armcal.devices.theodolite import BAR_ENDS
-from armcal.errors import Issue, SpecError, UserError
+from armcal.errors import Issue, SpecError
+from armcal.fileio import read_input
 from armcal.spec.model import Spec
 from armcal.units import factor
 
 MAX_ISSUES = 20
+MAX_SAMPLES = 200_000  # rows of one data file (100,000 ball-bar samples take about 0.7 GiB at the fit)
 DECIMAL_COMMA = re.compile(r"\d,\d")
 
 
@@ -36,13 +38,21 @@ class _Problems:
             raise SpecError(self.issues)
 
 
-def _table(path: Path) -> tuple[list[str], list[list[str]]]:
+def data_text(path: Path) -> str:
+    """A data file's text (UTF-8, a BOM allowed), read within the limits of fileio.read_input and MAX_SAMPLES."""
+    raw = read_input(path, "data")
     try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise UserError(f"{path}: data file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{path}: cannot read the data file ({exc})") from None
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise SpecError([Issue(path, line, None, "", "the file is not UTF-8 text (save it as UTF-8: Latin-1 or UTF-16 files are not read)")]) from None
+    if text.count("\n") > MAX_SAMPLES + 1:
+        raise SpecError([Issue(path, MAX_SAMPLES + 2, None, "", f"more than {MAX_SAMPLES} samples; split the campaign into files of fewer")])
+    return text
+
+
+def _table(path: Path) -> tuple[list[str], list[list[str]]]:
+    text = data_text(path)
     lines = text.splitlines()
     if not lines or not lines[0].strip():
         raise SpecError([Issue(path, 1, None, "", "the file is empty; a header row is expected")])
@@ -50,7 +60,11 @@ def _table(path: Path) -> tuple[list[str], list[list[str]]]:
         raise SpecError(
             [Issue(path, 1, None, "", "columns are separated by ';': armcal reads comma-separated files with '.' as decimal mark")]
         )
-    rows = list(csv.reader(io.StringIO(text)))
+    reader = csv.reader(io.StringIO(text))
+    try:
+        rows = list(reader)
+    except csv.Error as exc:
+        raise SpecError([Issue(path, reader.line_num, None, "", f"not a CSV row the reader can take ({exc})")]) from None
     return [h.strip() for h in rows[0]], rows[1:]
 
 

@@ -34,12 +34,22 @@ def calibration_problem(spec: Spec, kinematics: KinematicModel, device: DeviceMo
     effects = EffectSet(tuple(from_spec(e) for e in spec.effects))
     problem = build_problem(kinematics, device, calibration, effects)
     free = int(problem.parameters.free.sum())
-    if len(problem.residuals.sample) <= free:
+    readings, distinct = len(problem.residuals.sample), distinct_readings(problem, calibration)
+    if distinct <= free:
+        repeated = f" ({readings} readings, but only {distinct} of them at distinct poses)" if distinct < readings else ""
         raise UserError(
-            f"{calibration.source}: {len(problem.residuals.sample)} readings cannot determine {free} free parameters; "
+            f"{calibration.source}: {distinct} readings cannot determine {free} free parameters{repeated}; "
             "measure more poses or fix parameters in the spec"
         )
     return problem, starting_values(problem, kinematics, device, calibration)
+
+
+def distinct_readings(problem: Problem, data: Measurements) -> int:
+    """Readings that differ in what was read or where (key, channel, joint readings): repeats add no information."""
+    q = np.round(np.nan_to_num(data.q), 9)
+    where = lambda sample: q[sample].tobytes() if sample >= 0 else b""  # noqa: E731  (-1: a pseudo-observation)
+    residuals = problem.residuals
+    return len({(str(key), channel, where(sample)) for key, channel, sample in zip(residuals.key, residuals.channel, residuals.sample)})
 
 
 def identify_and_diagnose(

@@ -16,8 +16,10 @@ import math
 
 import numpy as np
 
-from armcal.effects.model import gravity_torque_function
+from armcal.effects.model import DEFAULT_LINK_MASS, gravity_torque_function
 from armcal.evaluate.residuals import ARCSEC, residual_unit
+from armcal.spec.robot import joint_kind
+from armcal.units import factor
 
 BINS = 18
 
@@ -62,14 +64,14 @@ def evidence(loaded, kinematics, calibration, data) -> dict:
         columns = [problem.parameters.index(p.name) for p in effect.parameters()]
         contribution = J_start[:, columns] @ (final[columns] - start[columns])
         series[effect.id] = magnitude(to_unit(contribution[chosen] * sigma))
-    angle_unit = spec.robot.units.angle
-    angle = 1.0 if angle_unit == "rad" else math.pi / 180.0
     q = data.q[samples]
     torque = np.array(gravity_torque_function(kinematics).map(len(q))(np.nan_to_num(q).T, final[: problem.n_robot])).T
     block = {
         "unit": unit,
-        "angle_unit": angle_unit,
-        "joints": [{"joint": j + 1, **_binned(q[:, j] / angle, series)} for j in range(kinematics.dof)],
+        "joints": [{"joint": j + 1, **_binned(q[:, j] / factor(joint_kind(kind), spec.robot.units.of(joint_kind(kind))), series)}
+                   for j, kind in enumerate(kinematics.joint_types)],
+        "joint_axes": [_joint_axis(kind, spec) for kind in kinematics.joint_types],
+        "torque_masses": f"{DEFAULT_LINK_MASS:g} kg at each link frame's origin beyond the joint (assumed: the spec declares no masses)",
         "gravity_torque": [
             {"joint": j + 1, **_binned(torque[:, j], series)}
             for j in range(kinematics.dof)
@@ -85,6 +87,12 @@ def evidence(loaded, kinematics, calibration, data) -> dict:
     if spec.device.type == "ballbar":  # Goswami Fig. 3: residuals along the shells' longitudes
         block["longitude"] = _binned(_longitudes(kinematics, problem, final, data, samples), series)
     return block
+
+
+def _joint_axis(joint_type: str, spec) -> str:
+    """The x axis of a joint's panel: an angle for a revolute joint, a position for a prismatic one."""
+    kind = joint_kind(joint_type)
+    return f"joint {'angle' if kind == 'angle' else 'position'} ({spec.robot.units.of(kind)})"
 
 
 def _longitudes(kinematics, problem, theta, data, samples) -> np.ndarray:

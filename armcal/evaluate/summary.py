@@ -84,7 +84,7 @@ def summarize(
             "loss": spec.fit.loss,
             "outliers": sorted(int(r) for r in set(np.asarray(outliers).tolist())),
         },
-        noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled},
+        noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled, "verdict": uncertainty.verdict},
         correlations=[list(c) for c in uncertainty.correlations],
         campaign=measured,
     )

@@ -4,7 +4,9 @@ With residuals weighted by the device's noise sigma, the covariance of the
 base parameters is (J^T J)^-1 at the solution. chi^2 = sum r^2 is compared with
 its distribution on M - p degrees of freedom: if the residuals are larger than
 the noise model allows (p-value below 1 %), the covariance is scaled by
-chi^2 / dof so the uncertainties stay honest, and the report says so.
+chi^2 / dof so the uncertainties stay honest, and the report says so; if they
+are smaller than it allows (chi^2 in its lower 1 %), the declared noise is too
+large and the uncertainties are overstated. Either way the verdict is reported.
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import chdtrc  # chi-square survival function; scipy.stats imports slowly
+from scipy.special import chdtr, chdtrc  # chi-square distribution and survival functions; scipy.stats imports slowly
 
 NOISE_CHECK_LEVEL = 0.01
 CORRELATION_REPORTED = 0.95
@@ -26,6 +28,7 @@ class Uncertainty:
     dof: int
     p_value: float  # of chi2 >= observed under the noise model
     scaled: bool  # covariance scaled by chi2 / dof
+    verdict: str  # consistent | residuals_too_large | residuals_too_small
     correlations: tuple[tuple[str, str, float], ...]  # pairs above CORRELATION_REPORTED
 
 
@@ -36,6 +39,7 @@ def estimate(J: np.ndarray, r: np.ndarray, names: list[str]) -> Uncertainty:
     p_value = float(chdtrc(dof, chi2))
     covariance = np.linalg.pinv(J.T @ J)
     scaled = p_value < NOISE_CHECK_LEVEL and chi2 > dof
+    verdict = "residuals_too_large" if scaled else "residuals_too_small" if chdtr(dof, chi2) < NOISE_CHECK_LEVEL else "consistent"
     if scaled:
         covariance *= chi2 / dof
     std = np.sqrt(np.maximum(np.diag(covariance), 0.0))
@@ -47,7 +51,7 @@ def estimate(J: np.ndarray, r: np.ndarray, names: list[str]) -> Uncertainty:
         for j in range(i + 1, len(names))
         if abs(correlation[i, j]) >= CORRELATION_REPORTED
     ]
-    return Uncertainty(covariance, std, chi2, dof, p_value, scaled, tuple(pairs))
+    return Uncertainty(covariance, std, chi2, dof, p_value, scaled, verdict, tuple(pairs))
 
 
 def residual_stats(values: np.ndarray) -> dict:

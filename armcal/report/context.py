@@ -5,10 +5,12 @@ from __future__ import annotations
 import base64
 import math
 
+from armcal.units import ANGLE_UNITS, factor
+
 PLOT_TITLES = {
     "residual_histogram.svg": "Residuals after calibration, with the Gaussian of the noise model",
-    "residual_vs_joint.svg": "Residual magnitude against each joint angle (before and after the diagnosis)",
-    "residual_vs_torque.svg": "Residual magnitude against the gravity torque about each joint",
+    "residual_vs_joint.svg": "Residual magnitude against each joint's reading (before and after the diagnosis)",
+    "residual_vs_torque.svg": "Residual magnitude against the gravity torque about each joint, from assumed masses",
     "residual_per_key.svg": "Residual RMS per target, pivot pairing or station, design model and calibrated",
     "residual_vs_longitude.svg": "Residual magnitude along the longitudes of the hemispherical shells (Goswami Fig. 3)",
     "residual_vs_t.svg": "Residual magnitude against time",
@@ -16,6 +18,7 @@ PLOT_TITLES = {
 }
 
 
+FULL_TURN = {unit: 2 * math.pi / factor("angle", unit) for unit in ANGLE_UNITS}
 WIDE_PLOTS = {"residual_vs_joint.svg", "residual_vs_torque.svg"}  # panels per joint; the others print smaller
 
 
@@ -57,6 +60,13 @@ def _stats_rows(results: dict) -> list[dict]:
     return rows
 
 
+def _difference(parameter: dict) -> float:
+    """Identified minus nominal; for an angle the shorter way round (-179.99 against 180 is 0.01, not -359.99)."""
+    difference = parameter["value"] - parameter["nominal"]
+    turn = FULL_TURN.get(parameter["unit"])
+    return difference if turn is None else (difference + turn / 2) % turn - turn / 2
+
+
 def _parameter_rows(results: dict) -> list[dict]:
     rows = []
     for p in results["parameters"]:
@@ -68,9 +78,9 @@ def _parameter_rows(results: dict) -> list[dict]:
                 "unit": p["unit"],
                 "nominal": number(p["nominal"], decimals),
                 "value": number(p["value"], decimals),
-                "difference": number(p["value"] - p["nominal"], decimals),
+                "difference": number(_difference(p), decimals),
                 "expanded": number(expanded, decimals) if expanded is not None else "",
-                "mark": "" if p["free"] else "fixed",
+                "mark": "" if p["free"] else "held",
             }
         )
     return rows
@@ -153,11 +163,13 @@ def _iso(results: dict) -> dict | None:
 
 def _plots(results: dict, svgs: dict[str, str]) -> list[dict]:
     plots = []
+    masses = (results["diagnosis"].get("evidence") or {}).get("torque_masses")
     for name in results["diagnosis"].get("plots", []):
         if name in svgs:
             data = base64.b64encode(svgs[name].encode("utf-8")).decode("ascii")
             size = "" if name in WIDE_PLOTS else "small"
-            plots.append({"title": PLOT_TITLES.get(name, name), "source": f"data:image/svg+xml;base64,{data}", "size": size})
+            title = PLOT_TITLES.get(name, name) + (f" ({masses})" if name == "residual_vs_torque.svg" and masses else "")
+            plots.append({"title": title, "source": f"data:image/svg+xml;base64,{data}", "size": size})
     return plots
 
 
@@ -199,9 +211,10 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
         "spec": {
             "path": spec["path"],
             "sha256": spec["sha256"],
-            "git": (f"{git['commit']}" + (" (work tree with uncommitted changes)" if git["dirty"] else " (clean)")) if git else "not in a git repository",
+            "git": (f"{git['commit']}" + (" (the spec file differs from this commit)" if git["dirty"] else " (clean)")) if git else "not in a git repository",
         },
         "status": results["status"],
+        "run_id": results.get("run_id") or "not recorded",
         "solver": f"{results['solver']['method']}, {results['solver']['reason']}, {results['solver']['iterations']} iterations",
         "identifiability": {
             "rank": f"{identifiability['rank']} of {identifiability['n_parameters']}",

@@ -10,13 +10,16 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 
-plt.rcParams.update({"font.size": 8, "svg.fonttype": "none", "figure.dpi": 100})
+STYLE = {"font.size": 8, "svg.fonttype": "none", "figure.dpi": 100}  # while drawing only; the caller's rcParams stay as they were
+SVG_SALT = "armcal"  # element ids from hashes of this and the content, not random: the same plot gives the same bytes
 SERIES_STYLE = {"before": dict(color="0.6", marker="o", ms=3, lw=1), "after": dict(color="black", marker="o", ms=3, lw=1)}
 
 
 def svg(figure) -> str:
+    """The figure as SVG text, reproducible: fixed ids, no date."""
     buffer = io.StringIO()
-    figure.savefig(buffer, format="svg", bbox_inches="tight")
+    with plt.rc_context({"svg.hashsalt": SVG_SALT}):
+        figure.savefig(buffer, format="svg", bbox_inches="tight", metadata={"Date": None})
     plt.close(figure)
     return buffer.getvalue()
 
@@ -55,11 +58,11 @@ def histogram(evidence: dict) -> str:
     return svg(figure)
 
 
-def against(evidence: dict, section: str, xlabel: str) -> str:
-    """Binned residuals against each joint's angle or torque (one panel per joint)."""
+def against(evidence: dict, section: str, xlabels: list[str]) -> str:
+    """Binned residuals against each joint's angle (position) or torque, one panel per joint."""
     panels = evidence[section]
     figure, axes = _panels(len(panels))
-    for axis, binned in zip(axes, panels):
+    for axis, binned, xlabel in zip(axes, panels, xlabels):
         _series(axis, binned)
         axis.set_title(f"joint {binned['joint']}")
         axis.set_xlabel(xlabel)
@@ -89,16 +92,17 @@ def per_key(evidence: dict) -> str:
     return svg(figure)
 
 
+@plt.rc_context(STYLE)
 def draw_plots(evidence: dict) -> dict[str, str]:
     """Every plot the evidence supports: file name -> SVG text."""
-    angle = evidence["angle_unit"]
     plots = {
         "residual_histogram.svg": histogram(evidence),
-        "residual_vs_joint.svg": against(evidence, "joints", f"joint angle ({angle})"),
+        "residual_vs_joint.svg": against(evidence, "joints", evidence["joint_axes"]),
         "residual_per_key.svg": per_key(evidence),
     }
     if evidence["gravity_torque"]:
-        plots["residual_vs_torque.svg"] = against(evidence, "gravity_torque", "gravity torque (N m)")
+        torque = ["gravity torque (N m), default masses"] * len(evidence["gravity_torque"])
+        plots["residual_vs_torque.svg"] = against(evidence, "gravity_torque", torque)
     for name, label in (("t", "time (s)"), ("temperature", "temperature (degC)"), ("longitude", "longitude on the shell (deg)")):
         if name in evidence:
             plots[f"residual_vs_{name}.svg"] = over(evidence, name, label)

@@ -1,22 +1,48 @@
-"""Render the certificate: Jinja2 (autoescaped, strict) to HTML, WeasyPrint to PDF with a closed URL fetcher."""
+"""Render the certificate: Jinja2 (sandboxed, autoescaped, strict, bounded) to HTML, WeasyPrint to PDF with a closed URL fetcher.
+
+Every file the certificate reads - templates, stylesheets and images of the template
+folders, the plots beside a results.json - is a regular file inside its folder after
+resolving links, of bounded size (the limits below, listed in docs/errors.md).
+"""
 
 from __future__ import annotations
 
 import json
+import math
+import mimetypes
+import os
+import stat
+import traceback
+from contextlib import contextmanager
+from datetime import datetime
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
 import jinja2
-from jinja2.sandbox import SandboxedEnvironment
+from jinja2.loaders import split_template_path
+from jinja2.sandbox import SandboxedEnvironment, SecurityError, safe_range
+from pydantic import ValidationError
 from weasyprint import HTML
-from weasyprint.urls import URLFetcher
+from weasyprint.urls import URLFetcher, URLFetcherResponse
 
 from armcal.errors import UserError
 from armcal.fileio import write_bytes_atomic
+from armcal.output_set import check_set, replace_in_set
 from armcal.report.context import certificate_context
+from armcal.results.model import Results
 
 PACKAGED = Path(__file__).resolve().parent.parent / "templates"
 TEMPLATE = "certificate.html.j2"
+CERTIFICATES = ("certificate.pdf", "certificate.html")
+
+MIB = 1 << 20
+FOLDER_FILE_LIMIT = 1 * MIB  # a template, stylesheet or image of a template folder
+PLOT_LIMIT = 10 * MIB  # an SVG plot beside results.json
+RESULTS_LIMIT = 16 * MIB  # results.json (armcal's own are well below 1 MiB)
+TEXT_LIMIT = 256 * MIB  # text one render may make: each value it prints and each join (output, blocks, macros), counted together
+RANGE_LIMIT = 1_000_000  # items of all range() calls of one render (each at most the sandbox's 100000)
+REPEAT_LIMIT = 1_000_000  # items of a string or list repeated with *
+NUMBER_BITS = 128  # integers computed with * and ** stay below 2**128
 
 
 def template_folders(user_folder: Path | None) -> list[Path]:
@@ -24,45 +50,229 @@ def template_folders(user_folder: Path | None) -> list[Path]:
     return ([user_folder] if user_folder else []) + [PACKAGED]
 
 
-class TemplateFetcher(URLFetcher):
-    """Serves data: URIs and files inside the template folders; refuses everything else (no file://, no network)."""
+def read_regular(path: Path, limit: int, shown: Path) -> bytes | None:
+    """The bytes of a regular file of at most ``limit`` bytes; None if there is none. A FIFO or device is refused, never opened to read."""
+    try:
+        handle = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # O_NONBLOCK: opening a FIFO does not wait for a writer
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError) as exc:
+        raise UserError(f"{shown}: cannot read the file ({getattr(exc, 'strerror', None) or exc})") from None
+    if not stat.S_ISREG(os.fstat(handle).st_mode):
+        os.close(handle)
+        raise UserError(f"{shown} is not a regular file; refused")
+    with os.fdopen(handle, "rb") as stream:
+        data = stream.read(limit + 1)
+    if len(data) > limit:
+        raise UserError(f"{shown} is larger than {limit // MIB} MiB; refused")
+    return data
+
+
+def read_inside(folder: Path, name: str, limit: int) -> bytes | None:
+    """The bytes of file ``name`` of ``folder`` (read_regular), refused if it leads outside the folder (a link, '..', an absolute path)."""
+    shown = Path(folder) / name
+    try:
+        root = Path(folder).resolve()
+        path = (root / name).resolve()
+    except (OSError, RuntimeError, ValueError) as exc:  # RuntimeError: a loop of links
+        raise UserError(f"{shown}: cannot read the file ({exc})") from None
+    if not path.is_relative_to(root):
+        raise UserError(f"{shown} leads outside {folder} (a link, '..' or an absolute path); only files inside the folder are read")
+    return read_regular(path, limit, shown)
+
+
+def decoded(data: bytes, shown: Path) -> str:
+    """UTF-8 text, else a UserError naming the file and the first bad byte."""
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise UserError(f"{shown}: the file is not UTF-8 text (byte {exc.start})") from None
+
+
+class FolderLoader(jinja2.BaseLoader):
+    """Templates from the first folder that has them, each read with read_inside; remembers the files it served."""
 
     def __init__(self, folders: list[Path]):
-        super().__init__(allowed_protocols={"data", "file"}, fail_on_errors=False)
-        self.folders = [f.resolve() for f in folders]
+        self.folders = folders
+        self.served: list[str] = []  # the first is the certificate's own template
 
-    def fetch(self, url, headers=None):
-        if url.startswith("file:"):
-            path = Path(unquote(urlparse(url).path)).resolve()
-            if not any(path.is_relative_to(folder) for folder in self.folders):
-                raise ValueError(f"the certificate may not read {url}")
-        elif not url.startswith("data:"):
-            raise ValueError(f"the certificate may not fetch {url}")
-        return super().fetch(url, headers)
+    def get_source(self, environment, template: str):
+        name = "/".join(split_template_path(template))  # refuses '..'
+        for folder in self.folders:
+            data = read_inside(folder, name, FOLDER_FILE_LIMIT)
+            if data is not None:
+                filename = str(Path(folder) / name)
+                self.served.append(filename)
+                return decoded(data, Path(filename)), filename, None
+        raise jinja2.TemplateNotFound(template)
+
+
+class CertificateEnvironment(SandboxedEnvironment):
+    """The sandbox (a template cannot reach Python internals) with bounds on what one render may build:
+    range() items, repetition with *, integer size, and text (each printed value and each join, counted together)."""
+
+    intercepted_binops = frozenset({"*", "**"})
+
+    def __init__(self, folders: list[Path]):
+        super().__init__(loader=FolderLoader(folders), autoescape=True, undefined=jinja2.StrictUndefined, finalize=self.printed)
+        self.globals["range"] = self.bounded_range
+        del self.globals["lipsum"]  # lipsum(n) has no bound on n
+        self.ranged = 0
+        self.characters = 0
+
+    def count_text(self, length: int) -> None:
+        self.characters += length
+        if self.characters > TEXT_LIMIT:
+            raise SecurityError(f"the template renders more than {TEXT_LIMIT // MIB} MiB of text")
+
+    def bounded_range(self, *args: int) -> range:
+        """range() as the sandbox allows it, with at most RANGE_LIMIT items over the whole render."""
+        items = safe_range(*args)
+        self.ranged += len(items)
+        if self.ranged > RANGE_LIMIT:
+            raise SecurityError(f"the template's loops run over more than {RANGE_LIMIT} range() items")
+        return items
+
+    def call_binop(self, context, operator: str, left, right):
+        """``*`` and ``**`` with bounded results: no gigabyte strings or million-digit numbers from one expression."""
+        if operator == "**" and _integers(left, right) and abs(left) > 1 and right * math.log2(abs(left)) >= NUMBER_BITS:
+            raise SecurityError(f"{left} ** {right} is too large (integers stay below 2**{NUMBER_BITS})")
+        if operator == "*":
+            if _integers(left, right) and abs(left).bit_length() + abs(right).bit_length() > NUMBER_BITS:
+                raise SecurityError(f"the product is too large (integers stay below 2**{NUMBER_BITS})")
+            sequence, count = (left, right) if isinstance(right, int) else (right, left)
+            if isinstance(sequence, (str, list, tuple)) and isinstance(count, int):
+                size = len(sequence) * max(count, 0)
+                if size > REPEAT_LIMIT:
+                    raise SecurityError(f"'*' would repeat {len(sequence)} x {count} items (at most {REPEAT_LIMIT})")
+                self.count_text(size)
+        return super().call_binop(context, operator, left, right)
+
+    def printed(self, value):
+        """Each value a template prints (Jinja's finalize), counted as it is made."""
+        self.count_text(len(value) if isinstance(value, str) else len(str(value)))
+        return value
+
+    def concat(self, pieces) -> str:
+        """Join text (the output, a block, a macro's body), counted piece by piece."""
+        kept = []
+        for piece in pieces:
+            try:
+                self.count_text(len(piece))
+            except SecurityError as exc:
+                if hasattr(pieces, "throw"):  # the output, still being rendered: raise it at the template's line
+                    pieces.throw(exc)
+                raise
+            kept.append(piece)
+        return "".join(kept)
+
+
+def _integers(*values) -> bool:
+    """Whether every value is an int (bools included)."""
+    return all(isinstance(v, int) for v in values)
+
+
+def template_error(exc: BaseException, served: list[str]) -> str:
+    """``file:line: message`` of an error raised while loading or rendering a template (the line where Jinja knows it)."""
+    if isinstance(exc, jinja2.TemplateSyntaxError) and exc.filename:
+        return f"{exc.filename}:{exc.lineno}: {exc.message}"
+    if isinstance(exc, jinja2.TemplateNotFound):
+        message = f"there is no template '{exc.name}' in the template folders"
+    else:
+        message = str(exc) or type(exc).__name__
+    lines = [f"{frame.filename}:{frame.lineno}" for frame in traceback.extract_tb(exc.__traceback__) if frame.filename in served]
+    where = lines[-1] if lines else served[0] if served else ""
+    return f"{where}: {message}" if where else message
 
 
 def render_html(context: dict, folders: list[Path]) -> str:
-    environment = SandboxedEnvironment(  # a user's template cannot reach Python internals
-        loader=jinja2.FileSystemLoader([str(f) for f in folders]),
-        autoescape=True,
-        undefined=jinja2.StrictUndefined,
-    )
-    return environment.get_template(TEMPLATE).render(**context)
+    """The certificate's HTML; any error in a template becomes a UserError naming its file and line."""
+    environment = CertificateEnvironment(folders)
+    try:
+        return environment.get_template(TEMPLATE).render(**context)
+    except Exception as exc:  # whatever a template does wrong (syntax, undefined value, a limit, a Python error) is the template's
+        raise UserError(template_error(exc, environment.loader.served)) from exc
 
 
-def render_pdf(html: str, folders: list[Path]) -> bytes:
-    base = folders[-1]
-    return HTML(string=html, base_url=str(base) + "/", url_fetcher=TemplateFetcher(folders)).write_pdf()
+class TemplateFetcher(URLFetcher):
+    """Serves data: URIs and files of the template folders (read with read_inside; a name is looked up in the folder
+    its URL names, then in the later ones); refuses any other file:// URL and the network, and remembers each refusal."""
+
+    def __init__(self, folders: list[Path]):
+        super().__init__(allowed_protocols={"data"}, fail_on_errors=False)
+        self.folders = [Path(f).resolve() for f in folders]
+        self.refused: list[str] = []
+
+    def fetch(self, url, headers=None):
+        try:
+            return self.serve(url, headers)
+        except (UserError, ValueError) as exc:
+            self.refused.append(str(exc))
+            raise ValueError(str(exc)) from None
+
+    def serve(self, url: str, headers=None):
+        """A data: URI, or a file:// URL inside one of the folders."""
+        parsed = urlparse(url)
+        if parsed.scheme == "data":
+            return super().fetch(url, headers)
+        if parsed.scheme == "file" and parsed.netloc in ("", "localhost"):
+            path = Path(os.path.normpath(unquote(parsed.path)))
+            for index, folder in enumerate(self.folders):
+                if path.is_relative_to(folder):
+                    return self.first_of(str(path.relative_to(folder)), self.folders[index:], url)
+        shown = ", ".join(map(str, self.folders))
+        raise ValueError(f"the certificate may not fetch {url}: it reads only files of its template folders ({shown}) and data: URIs")
+
+    def first_of(self, name: str, folders: list[Path], url: str) -> URLFetcherResponse:
+        """File ``name`` of the first of ``folders`` that has it."""
+        for folder in folders:
+            data = read_inside(folder, name, FOLDER_FILE_LIMIT)
+            if data is not None:
+                kind = mimetypes.guess_type(name)[0] or "application/octet-stream"
+                return URLFetcherResponse((folder / name).as_uri(), data, {"Content-Type": kind})
+        raise ValueError(f"the certificate asks for {url}, which is in none of the template folders")
+
+
+@contextmanager
+def source_date(created: str):
+    """SOURCE_DATE_EPOCH at the results' creation time while it lasts (unless already set), so that fontTools
+    stamps the PDF's subset fonts with that time rather than now: the same results give the same PDF."""
+    try:
+        epoch = str(int(datetime.fromisoformat(created).timestamp()))
+    except ValueError:
+        epoch = None
+    if epoch is None or "SOURCE_DATE_EPOCH" in os.environ:
+        yield
+        return
+    os.environ["SOURCE_DATE_EPOCH"] = epoch
+    try:
+        yield
+    finally:
+        del os.environ["SOURCE_DATE_EPOCH"]
+
+
+def render_pdf(html: str, folders: list[Path], created: str) -> bytes:
+    """The PDF; relative URLs (certificate.css) are looked up in the first folder, a user's, then in the packaged one."""
+    fetcher = TemplateFetcher(folders)
+    with source_date(created):
+        pdf = HTML(string=html, base_url=fetcher.folders[0].as_uri() + "/", url_fetcher=fetcher).write_pdf()
+    if fetcher.refused:
+        raise UserError(fetcher.refused[0])
+    return pdf
+
+
+def render_certificate(context: dict, folders: list[Path], pdf: bool, created: str) -> dict[str, bytes]:
+    """certificate.html (and .pdf) from the template context."""
+    html = render_html(context, folders)
+    files = {"certificate.html": html.encode("utf-8")}
+    if pdf:
+        files["certificate.pdf"] = render_pdf(html, folders, created)
+    return files
 
 
 def certificate_files(results: dict, plots: dict[str, str], pdf: bool = True, user_templates: Path | None = None) -> dict[str, bytes]:
     """certificate.html (and .pdf), rendered in memory."""
-    folders = template_folders(user_templates)
-    html = render_html(certificate_context(results, plots), folders)
-    files = {"certificate.html": html.encode("utf-8")}
-    if pdf:
-        files["certificate.pdf"] = render_pdf(html, folders)
-    return files
+    return render_certificate(certificate_context(results, plots), template_folders(user_templates), pdf, results["created"])
 
 
 def write_files(folder: Path, files: dict[str, bytes | str]) -> list[Path]:
@@ -75,12 +285,48 @@ def write_files(folder: Path, files: dict[str, bytes | str]) -> list[Path]:
     return written
 
 
-def rerender(results_path: Path, pdf: bool = True) -> list[Path]:
-    """``armcal report``: the certificate again, from results.json alone (and the plots beside it)."""
-    folder = Path(results_path).parent
+def read_results(path: Path) -> dict:
+    """A results.json as armcal writes it (checked against the Results model), else one UserError naming the file."""
+    data = read_regular(path, RESULTS_LIMIT, path)
+    if data is None:
+        raise UserError(f"{path}: cannot read results (no such file)")
     try:
-        results = json.loads(Path(results_path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise UserError(f"{results_path}: cannot read results ({exc})") from None
-    plots = {name: (folder / name).read_text() for name in results["diagnosis"].get("plots", []) if (folder / name).exists()}
-    return write_files(folder, certificate_files(results, plots, pdf))
+        raw = json.loads(decoded(data, path))
+    except (ValueError, RecursionError) as exc:
+        raise UserError(f"{path}: cannot read results ({exc})") from None
+    try:
+        return Results.model_validate(raw).model_dump(mode="json")
+    except ValidationError as exc:
+        problems = [f"{'.'.join(map(str, e['loc'])) or 'the top level'}: {e['msg']}" for e in exc.errors()]
+        more = f" (and {len(problems) - 3} more)" if len(problems) > 3 else ""
+        raise UserError(f"{path}: not a results.json as armcal writes it: {'; '.join(problems[:3])}{more}") from None
+
+
+def read_plots(results_path: Path, names: list[str]) -> dict[str, str]:
+    """The SVG plots a results.json lists, from its folder (read_inside, PLOT_LIMIT each); a missing one is left out."""
+    plots = {}
+    for name in names:
+        try:
+            data = read_inside(results_path.parent, name, PLOT_LIMIT)
+            if data is not None:
+                plots[name] = decoded(data, results_path.parent / name)
+        except UserError as exc:
+            raise UserError(f"{results_path} lists the plot {name!r}: {exc}") from None
+    return plots
+
+
+def rerender(results_path: Path, pdf: bool = True, force: bool = False) -> list[Path]:
+    """``armcal report``: the certificate again, from results.json alone (and the plots beside it), into its output set."""
+    results_path = Path(results_path)
+    folder = results_path.parent
+    results = read_results(results_path)
+    plots = read_plots(results_path, results["diagnosis"]["plots"])
+    check_set(folder, [results_path.name, *plots])
+    existing = [name for name in CERTIFICATES if (folder / name).exists()]
+    if existing and not force:
+        raise UserError(f"{folder / existing[0]} exists; use --force to replace the certificate")
+    try:
+        context = certificate_context(results, plots)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:  # in its free-form blocks (evaluation)
+        raise UserError(f"{results_path}: not a results.json as armcal writes it ({type(exc).__name__}: {exc})") from None
+    return replace_in_set(folder, render_certificate(context, template_folders(None), pdf, results["created"]))

@@ -11,12 +11,13 @@ import numpy as np
 from matplotlib.ticker import NullFormatter
 
 from armcal.evaluate.grid import RADIAL, index_kind
-from armcal.report.plots import plt, svg
+from armcal.report.plots import STYLE, plt, svg
 
 
 SPREAD, TREND = "montecarlo_spread.svg", "montecarlo_trend.svg"
 
 
+@plt.rc_context(STYLE)
 def study_plots(summary: dict) -> dict[str, str]:
     """The study's plots by file name (the trend only for a sweep with spreads to fit)."""
     plots = {SPREAD: spread(summary)}

@@ -34,7 +34,8 @@ def parameter_rows(loaded: LoadedSpec, entries, values: np.ndarray, std: np.ndar
 
 def build_results(loaded: LoadedSpec, **stages) -> Results:
     """Results from: status, unit, identifiability, parameters, residuals, improvement_factor,
-    diagnosis, evaluation, solver, noise_check, correlations, campaign."""
+    diagnosis, evaluation, solver, noise_check, correlations, campaign. The spec's path is stored resolved and
+    absolute: the same file gives the same results however its path was typed."""
     spec = loaded.spec
     created = utc_now()
     return Results.model_validate(
@@ -42,7 +43,7 @@ def build_results(loaded: LoadedSpec, **stages) -> Results:
             "armcal_version": __version__,
             "created": created,
             "report": report_fields(loaded, created),
-            "spec": {"path": str(loaded.path), "sha256": loaded.sha256, "git": git_info(loaded.path)},
+            "spec": {"path": str(loaded.path.resolve()), "sha256": loaded.sha256, "git": git_info(loaded.path)},
             "robot": {"name": spec.robot.name, "serial": spec.robot.serial, "convention": spec.robot.convention, "dof": spec.robot.dof},
             "device": {"type": spec.device.type, "unit": stages.pop("unit")},
             **stages,

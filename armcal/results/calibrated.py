@@ -64,6 +64,9 @@ def _set(root: CommentedMap, path: list, value: float, held: bool = False) -> No
         node = node[part]
     last = path[-1]
     current = node.get(last) if isinstance(node, dict) else None
+    if isinstance(current, CommentedMap) and current.anchor.value is not None:  # shared by a YAML alias: write this one only
+        current = _unshared(current)
+        node[last] = current
     if isinstance(current, dict):
         current["value"] = value
         if held:
@@ -74,6 +77,14 @@ def _set(root: CommentedMap, path: list, value: float, held: bool = False) -> No
         node[last] = entry
     else:
         node[last] = value
+
+
+def _unshared(mapping: CommentedMap) -> CommentedMap:
+    """A copy of an anchored mapping, in the same style, that no alias refers to."""
+    copy = CommentedMap(mapping.items())
+    if mapping.fa.flow_style():
+        copy.fa.set_flow_style()
+    return copy
 
 
 def calibrated_yaml(
@@ -128,7 +139,7 @@ def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
     new_effects = [(e, {p.name.rsplit(".", 1)[1]: (float(theta[index(p.name)]), p.kind) for p in e.parameters()}) for e in added]
     note = (
         f"Calibrated by armcal {__version__} on {results.created} from {loaded.path.name} "
-        f"(sha256 {loaded.sha256[:12]}), status {results.status}."
+        f"(sha256 {loaded.sha256[:12]}), run {results.run_id}, status {results.status}."
         + (f"\nHeld (vary: false) as the fit held them, not identifiable at the design point: {', '.join(held)}." if held else "")
     )
     return calibrated_yaml(loaded.text, loaded.spec, identified, loaded.path, out_dir, note, new_effects)

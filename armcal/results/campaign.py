@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from armcal.spec import LoadedSpec
@@ -23,7 +25,20 @@ def _procedure(procedure) -> str:
     return source
 
 
-def campaign(loaded: LoadedSpec, calibration, validation) -> dict:
+def data_description(data, procedure, simulated: bool) -> str | None:
+    """What a data file holds: its readings and poses, and how it was made when armcal simulated it.
+
+    Measured data are described by themselves; the spec's procedure only planned them
+    (and says what was simulated)."""
+    if data is None:
+        return None
+    poses = len(np.unique(np.round(np.nan_to_num(data.q), 9), axis=0))
+    text = f"{len(data)} samples at {poses} poses from {Path(str(data.source)).name}"
+    return text + (f", simulated by armcal from the spec's procedure: {_procedure(procedure)}" if simulated else "")
+
+
+def campaign(loaded: LoadedSpec, calibration, validation, simulated: tuple[bool, bool]) -> dict:
+    """The campaign block: the instrument, and what the calibration and validation data are."""
     spec = loaded.spec
     device = spec.device
     length = spec.robot.units.length
@@ -45,8 +60,8 @@ def campaign(loaded: LoadedSpec, calibration, validation) -> dict:
     return {
         "instrument": instrument,
         "details": details,
-        "procedure": _procedure(spec.procedure),
-        "validation_procedure": _procedure(spec.validation),
+        "procedure": data_description(calibration, spec.procedure, simulated[0]),
+        "validation_procedure": data_description(validation, spec.validation, simulated[1]),
         "calibration_samples": len(calibration),
         "validation_samples": len(validation) if validation is not None else None,
         "temperature": [float(values.min()), float(values.max())] if values is not None else None,

@@ -151,6 +151,7 @@ class NoiseCheck(_Frozen):
     dof: int
     p_value: float
     covariance_scaled: bool
+    verdict: Literal["consistent", "residuals_too_large", "residuals_too_small"] = "consistent"
 
 
 class Solver(_Frozen):
@@ -183,6 +184,7 @@ class ReportInfo(_Frozen):
 
 class Results(_Frozen):
     armcal_version: str
+    run_id: str | None = None  # the run's id, in every artifact of its output set (armcal/output_set.py)
     created: str
     spec: SpecInfo
     robot: RobotInfo

@@ -7,7 +7,8 @@ import json
 from pathlib import Path
 
 from armcal.dataio.writer import write_measurements
-from armcal.fileio import write_text_atomic
+from armcal.errors import UserError
+from armcal.fileio import read_input, refuse_replacing, write_text_atomic
 from armcal.simulate.campaign import Campaign, simulate_campaign
 from armcal.spec import LoadedSpec
 
@@ -20,10 +21,12 @@ def data_file_names(loaded: LoadedSpec) -> tuple[str, str]:
     return Path(data.calibration).name, Path(data.validation or "validation.csv").name
 
 
-def write_simulation(loaded: LoadedSpec, out_dir: Path) -> tuple[Campaign, list[Path]]:
-    """Simulate the spec's campaign and write its CSV files and truth.json into ``out_dir``."""
-    campaign = simulate_campaign(loaded.spec, loaded.path.parent)
+def write_simulation(loaded: LoadedSpec, out_dir: Path, force: bool = False) -> tuple[Campaign, list[Path]]:
+    """Simulate the spec's campaign and write its CSV files and truth.json into ``out_dir``
+    (replacing existing ones only with ``force``, the spec never)."""
     names = data_file_names(loaded)
+    refuse_replacing([Path(out_dir) / n for n in (*names, "truth.json")], [loaded.path], force)
+    campaign = simulate_campaign(loaded.spec, loaded.path.parent)
     written = []
     for name, measurements in zip(names, (campaign.calibration, campaign.validation)):
         if measurements is not None:
@@ -42,9 +45,14 @@ def find_truth(data_file: Path) -> dict | None:
     record_path = Path(data_file).parent / "truth.json"
     if not record_path.exists():
         return None
-    record = json.loads(record_path.read_text())
-    digest = hashlib.sha256(Path(data_file).read_bytes()).hexdigest()
-    return record if record.get("data_sha256", {}).get(Path(data_file).name) == digest else None
+    try:
+        record = json.loads(read_input(record_path, "truth"))
+    except (ValueError, RecursionError):
+        record = None
+    if not isinstance(record, dict) or not isinstance(record.get("data_sha256"), dict):
+        raise UserError(f"{record_path}: not a truth record written by armcal simulate; remove it or simulate the data again")
+    digest = hashlib.sha256(read_input(data_file, "data")).hexdigest()
+    return record if record["data_sha256"].get(Path(data_file).name) == digest else None
 
 
 __all__ = ["Campaign", "find_truth", "simulate_campaign", "write_simulation"]

@@ -19,7 +19,8 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from armcal import units
-from armcal.errors import Issue, SpecError, UserError
+from armcal.errors import Issue, SpecError
+from armcal.fileio import read_input
 from armcal.spec.checks import check_spec
 from armcal.spec.model import Spec
 from armcal.spec.robot import joint_kind
@@ -53,10 +54,7 @@ class _Document:
 def load_spec(path: str | Path) -> LoadedSpec:
     """Read, parse and validate a spec file; raise SpecError listing every problem."""
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise UserError(f"{path}: cannot read the spec ({exc.strerror or exc})") from None
+    raw = read_input(path, "spec")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -78,12 +76,18 @@ def parse_yaml(text: str, path: Path) -> _Document:
         raise SpecError([Issue(path, line, column, "", f"YAML syntax error: {message}")]) from None
     except YAMLError as exc:
         raise SpecError([Issue(path, None, None, "", f"YAML error: {exc}")]) from None
+    except RecursionError:
+        raise SpecError([Issue(path, None, None, "", "the YAML is nested too deeply (hundreds of levels); a spec needs a few")]) from None
+    except ValueError as exc:  # e.g. an integer of more digits than Python converts
+        raise SpecError([Issue(path, None, None, "", f"a value cannot be read: {str(exc).split(';')[0][:120]}")]) from None
     if not isinstance(root, CommentedMap):
         raise SpecError([Issue(path, 1, 1, "", "a spec must be a mapping with robot, device and procedure sections")])
     document = _Document(data=None, values={(): (root.lc.line + 1, root.lc.col + 1)}, keys={})
     budget = [MAX_NODES]
     try:
         document.data = _plain(root, (), document, budget)
+    except RecursionError:
+        raise SpecError([Issue(path, None, None, "", "the YAML is nested too deeply (hundreds of levels); a spec needs a few")]) from None
     except _TooLarge:
         raise SpecError(
             [Issue(path, None, None, "", f"the YAML expands to more than {MAX_NODES} values (anchors and aliases?)")]
@@ -155,6 +159,20 @@ def validate(document: _Document, path: Path) -> Spec:
     if problems:
         raise SpecError(_sorted([_located(loc, message, document, path) for loc, message in problems]))
     return spec
+
+
+def missing_data_files(loaded: LoadedSpec) -> list[Issue]:
+    """The data files a spec names that are not there (yet): `armcal run` needs them, `armcal simulate` writes them."""
+    data = loaded.spec.data
+    if data is None:
+        return []
+    document = parse_yaml(loaded.text, loaded.path)
+    message = "no such file beside the spec (paths are relative to its folder); `armcal run` needs it, `armcal simulate` writes simulated data"
+    return [
+        _located(("data", key), f"{name}: {message}", document, loaded.path)
+        for key, name in (("calibration", data.calibration), ("validation", data.validation))
+        if name and not (loaded.path.parent / name).is_file()
+    ]
 
 
 def _sorted(issues: list[Issue]) -> list[Issue]:

@@ -1,0 +1,122 @@
+"""Unbounded or odd input ends fast with one located message, never a traceback, and never echoes a file's content."""
+
+import os
+import time
+
+import pytest
+from conftest import ROOT, armcal_cli, copy_example
+
+EXAMPLE = ROOT / "examples" / "hidden_harmonic"
+SECRET = "armcal-test-secret-3f9a"
+
+
+@pytest.fixture()
+def workspace(tmp_path):
+    return copy_example("hidden_harmonic", tmp_path)
+
+
+def armcal(*args, timeout=120):
+    """The CLI with a secret in its environment (no message may show it), timed."""
+    started = time.time()
+    done = armcal_cli(*args, timeout=timeout, env={**os.environ, "ARMCAL_TEST_SECRET": SECRET})
+    done.seconds = time.time() - started
+    return done
+
+
+def refused(result, *phrases):
+    assert result.returncode == 1, (result.returncode, result.stdout, result.stderr)
+    assert "Traceback" not in result.stderr and SECRET not in result.stderr + result.stdout
+    for phrase in phrases:
+        assert phrase in result.stderr, result.stderr
+
+
+@pytest.fixture()
+def fifo(tmp_path):
+    path = tmp_path / "fifo"
+    os.mkfifo(path)
+    return path
+
+
+def test_a_spec_that_is_a_stream_a_device_or_a_pipe(fifo):
+    for path in ("/dev/zero", "/dev/urandom", "/proc/self/environ"):
+        refused(armcal("validate", path), "cannot read the spec file", "holds no input files")
+    refused(armcal("validate", fifo, timeout=20), "not a regular file")
+
+
+def test_a_spec_too_large_too_deep_or_with_a_huge_number(tmp_path):
+    big = tmp_path / "big.yaml"
+    big.write_text("armcal: 1\nvalues: [" + ", ".join(["1"] * 1_000_000) + "]\n")
+    refused(armcal("validate", big), "more than the 256 KiB a spec file may have")
+    deep = tmp_path / "deep.yaml"
+    deep.write_text("armcal: 1\nrobot: " + "[" * 500 + "]" * 500 + "\n")
+    refused(armcal("validate", deep), "nested too deeply")
+    huge = tmp_path / "huge.yaml"
+    huge.write_text("armcal: 1\nrobot: {name: " + "9" * 5000 + "}\n")
+    refused(armcal("validate", huge), "a value cannot be read")
+
+
+@pytest.mark.parametrize("value", ["1e-320", "1e308"])
+def test_numbers_outside_what_can_be_computed(workspace, value):
+    text = (workspace / "spec.yaml").read_text()
+    text = text.replace("noise: 0.0025", f"noise: {value}") if value == "1e-320" else text.replace("reflector: {link: 6, x: 5.0", f"reflector: {{link: 6, x: {value}")
+    (workspace / "spec.yaml").write_text(text)
+    refused(armcal("run", workspace / "spec.yaml", "--no-pdf"), "lies outside what armcal computes with")
+
+
+def test_data_files_that_are_not_data(workspace, fifo):
+    spec = workspace / "spec.yaml"
+    original = spec.read_text()
+    for path, phrase in (("/dev/zero", "holds no input files"), ("/proc/self/environ", "holds no input files"), (str(fifo), "not a regular file"),
+                         (str(workspace), "it is a folder")):
+        spec.write_text(original.replace("calibration: calibration.csv", f"calibration: {path}"))
+        refused(armcal("run", spec, "--no-pdf", timeout=20), "cannot read the data file", phrase)
+
+
+@pytest.mark.parametrize("encoding", ["latin-1", "utf-16"])
+def test_data_in_another_encoding(workspace, encoding):
+    text = (workspace / "calibration.csv").read_text().replace("sample,", "sample\u00e9,", 1)
+    (workspace / "calibration.csv").write_bytes(text.encode(encoding))
+    refused(armcal("run", workspace / "spec.yaml", "--no-pdf"), "calibration.csv:1", "not UTF-8 text")
+
+
+def test_a_csv_field_too_long_and_too_many_rows(workspace):
+    lines = (workspace / "calibration.csv").read_text().splitlines()
+    (workspace / "calibration.csv").write_text("\n".join(lines[:5] + ['"' + "x" * 200_000 + '"'] + lines[5:]) + "\n")
+    refused(armcal("run", workspace / "spec.yaml", "--no-pdf"), "calibration.csv:", "not a CSV row")
+    (workspace / "calibration.csv").write_text("\n".join([lines[0]] + [lines[1]] * 200_001) + "\n")
+    refused(armcal("run", workspace / "spec.yaml", "--no-pdf"), "more than 200000 samples")
+
+
+@pytest.mark.parametrize("content", ["", "[]", "{\"data_sha256\": 3}", "folder"])
+def test_a_truth_record_that_is_not_one(workspace, content):
+    truth = workspace / "truth.json"
+    if content == "folder":
+        truth.mkdir()
+        phrase = "it is a folder"
+    else:
+        truth.write_text(content)
+        phrase = "not a truth record"
+    refused(armcal("run", workspace / "spec.yaml", "--no-pdf"), "truth.json", phrase)
+
+
+def test_import_ipa_of_an_empty_file_or_into_a_spec_without_a_tracker(tmp_path):
+    empty = tmp_path / "empty.csv"
+    empty.write_text("")
+    refused(armcal("import-ipa", ROOT / "specs" / "ur10.yaml", empty, "--out", tmp_path / "out.csv"), "the file is empty")
+    refused(armcal("import-ipa", ROOT / "specs" / "puma560_dh.yaml", empty, "--out", tmp_path / "out.csv", "--target", "sparker6"),
+            "the spec's device must be a tracker")
+
+
+@pytest.mark.parametrize("address", ["tcp://", "nonsense", "tcp://host:99999", "a b:1"])
+def test_a_malformed_scheduler_address_is_refused_at_once(tmp_path, address):
+    result = armcal("batch", EXAMPLE / "spec.yaml", "--out", tmp_path, "--no-pdf", "--scheduler", address)
+    refused(result, "is not a scheduler address")
+    assert result.seconds < 10
+
+
+def test_studies_and_procedures_of_unbounded_size(workspace):
+    result = armcal("montecarlo", workspace / "spec.yaml", "--runs", "1000000000")
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    spec = ROOT / "examples" / "goswami_ballbar" / "spec.yaml"
+    (workspace / "shells.yaml").write_text(spec.read_text().replace("longitudes: 23", "longitudes: 3000000"))
+    refused(armcal("validate", workspace / "shells.yaml"), "longitudes")

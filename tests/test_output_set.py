@@ -1,0 +1,208 @@
+"""The output folder is one unit (one run's set or the previous one), nothing existing is replaced without
+--force, an input never is, concurrent and killed runs leave no mix, and a fleet reports every robot."""
+
+import hashlib
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from conftest import EXAMPLE_DATA, ROOT, armcal_cli, copy_example
+
+from armcal.output_set import MANIFEST
+
+EXAMPLE = ROOT / "examples" / "theodolite"
+
+
+@pytest.fixture()
+def workspace(tmp_path):
+    return copy_example("theodolite", tmp_path, (*EXAMPLE_DATA, "truth.json"))
+
+
+armcal = armcal_cli
+
+
+def other_input(folder) -> None:
+    """Other input bytes, the same calibration: another run."""
+    with open(folder / "spec.yaml", "a") as spec:
+        spec.write("# edited\n")
+
+
+def one_complete_set(folder) -> str:
+    """The folder's files are exactly those its manifest lists, each as written: returns the run id."""
+    manifest = json.loads((folder / MANIFEST).read_text())
+    names = {p.name for p in folder.iterdir()} - {MANIFEST}
+    assert names == set(manifest["files"]), names ^ set(manifest["files"])
+    for name, digest in manifest["files"].items():
+        assert hashlib.sha256((folder / name).read_bytes()).hexdigest() == digest, name
+    return manifest["run_id"]
+
+
+def test_a_forced_run_without_pdf_leaves_no_stale_certificate(workspace):
+    out = workspace / "out"
+    assert armcal("run", workspace / "spec.yaml", "--out", out).returncode == 0
+    assert (out / "certificate.pdf").exists()
+    assert armcal("run", workspace / "spec.yaml", "--out", out, "--no-pdf", "--force").returncode == 0
+    assert not (out / "certificate.pdf").exists()
+    one_complete_set(out)
+
+
+def test_every_artifact_carries_the_runs_id(workspace):
+    out = workspace / "out"
+    assert armcal("run", workspace / "spec.yaml", "--out", out, "--no-pdf").returncode == 0
+    identifier = one_complete_set(out)
+    assert json.loads((out / "results.json").read_text())["run_id"] == identifier
+    assert f"run {identifier}" in (out / "calibrated.yaml").read_text().splitlines()[0]
+    for svg in out.glob("*.svg"):
+        assert f"armcal run {identifier}" in svg.read_text()
+    assert f'<meta name="armcal-run" content="{identifier}">' in (out / "certificate.html").read_text()
+    other_input(workspace)
+    assert armcal("run", workspace / "spec.yaml", "--out", out, "--no-pdf", "--force").returncode == 0
+    assert one_complete_set(out) != identifier
+
+
+def test_report_refuses_a_mixed_set_and_asks_before_replacing(workspace):
+    first, second = workspace / "first", workspace / "second"
+    assert armcal("run", workspace / "spec.yaml", "--out", first, "--no-pdf").returncode == 0
+    other_input(workspace)
+    assert armcal("run", workspace / "spec.yaml", "--out", second, "--no-pdf").returncode == 0
+    unforced = armcal("report", first / "results.json", "--no-pdf")
+    assert unforced.returncode == 1 and "use --force" in unforced.stderr and "Traceback" not in unforced.stderr
+    assert armcal("report", first / "results.json", "--no-pdf", "--force").returncode == 0
+    one_complete_set(first)
+    plot = next(first.glob("*.svg"))
+    shutil.copy(second / plot.name, plot)  # a plot of the other run
+    mixed = armcal("report", first / "results.json", "--no-pdf", "--force")
+    assert mixed.returncode == 1 and "mixes two runs" in mixed.stderr and "Traceback" not in mixed.stderr
+
+
+@pytest.mark.parametrize("where", ["spec folder", "the input's own output folder"])
+def test_an_input_is_never_replaced_even_with_force(workspace, where):
+    if where == "spec folder":
+        spec, out = workspace / "spec.yaml", workspace
+    else:
+        assert armcal("run", workspace / "spec.yaml", "--out", workspace / "out", "--no-pdf").returncode == 0
+        spec, out = workspace / "out" / "calibrated.yaml", workspace / "out"
+    before = spec.read_bytes()
+    result = armcal("run", spec, "--out", out, "--force", "--no-pdf")
+    assert result.returncode == 1 and "an input of this run" in result.stderr, result.stderr
+    assert spec.read_bytes() == before
+
+
+def test_a_folder_of_other_files_is_not_taken_over(workspace):
+    out = workspace / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    result = armcal("run", workspace / "spec.yaml", "--out", out, "--force", "--no-pdf")
+    assert result.returncode == 1 and "not an armcal output set" in result.stderr
+    assert (out / "notes.txt").read_text() == "mine"
+
+
+def test_simulate_and_import_replace_nothing_without_force(workspace):
+    before = (workspace / "calibration.csv").read_bytes()
+    refused = armcal("simulate", workspace / "spec.yaml", "--out", workspace)
+    assert refused.returncode == 1 and "use --force" in refused.stderr
+    assert (workspace / "calibration.csv").read_bytes() == before
+    assert armcal("simulate", workspace / "spec.yaml", "--out", workspace, "--force").returncode == 0
+    series = workspace / "series.csv"
+    series.write_text("x")
+    for target in (workspace / "spec.yaml", series):  # its own inputs, --force or not
+        result = armcal("import-ipa", workspace / "spec.yaml", series, "--out", target, "--force")
+        assert result.returncode == 1 and "is an input of this command" in result.stderr
+    assert series.read_text() == "x"
+    existing = armcal("import-ipa", workspace / "spec.yaml", series, "--out", workspace / "calibration.csv")
+    assert existing.returncode == 1 and "use --force" in existing.stderr
+
+
+def test_two_concurrent_runs_into_one_folder(workspace):
+    """Started together: one writes its set, the other stops at once with a clear message."""
+    out = workspace / "out"
+    command = [sys.executable, "-m", "armcal", "run", str(workspace / "spec.yaml"), "--out", str(out), "--no-pdf"]
+    jobs = [subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    finished = [(job.wait(timeout=300), job.stderr.read()) for job in jobs]
+    assert sorted(code for code, _ in finished) == [0, 1], finished
+    assert "another armcal run is writing" in next(err for code, err in finished if code == 1)
+    one_complete_set(out)
+
+
+def test_a_run_killed_at_any_moment_leaves_one_complete_set(workspace):
+    out = workspace / "out"
+    assert armcal("run", workspace / "spec.yaml", "--out", out, "--no-pdf").returncode == 0
+    one_complete_set(out)
+    other_input(workspace)
+    for delay in (0.5, 1.5, 2.5, 3.0, 3.5, 4.0):
+        job = subprocess.Popen([sys.executable, "-m", "armcal", "run", str(workspace / "spec.yaml"), "--out", str(out), "--no-pdf", "--force"],
+                               cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        job.send_signal(signal.SIGKILL)
+        job.wait()
+        assert one_complete_set(out)  # the previous set or the new one, whole
+    assert armcal("run", workspace / "spec.yaml", "--out", out, "--no-pdf", "--force").returncode == 0
+    one_complete_set(out)
+    assert not [p for p in workspace.iterdir() if p.name.startswith(".out.")]  # no half-written set, no lock left
+
+
+@pytest.mark.skipif(os.geteuid() != 0 or not shutil.which("mount"), reason="needs root to mount a small tmpfs")
+def test_a_full_disk_keeps_the_previous_set(workspace, tmp_path_factory):
+    disk = tmp_path_factory.mktemp("disk")
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(disk)], capture_output=True).returncode != 0:
+        pytest.skip("mounting a tmpfs is not allowed here")
+    try:
+        out = disk / "out"
+        assert armcal("run", workspace / "spec.yaml", "--out", out, "--no-pdf").returncode == 0
+        previous = one_complete_set(out)
+        with open(disk / "filler", "wb", buffering=0) as filler:  # fill what is left
+            try:
+                while True:
+                    filler.write(b"\0" * 4096)
+            except OSError:
+                pass
+        result = armcal("run", workspace / "spec.yaml", "--out", out, "--force")
+        assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
+        assert "previous set is unchanged" in result.stderr
+        assert one_complete_set(out) == previous
+    finally:
+        subprocess.run(["umount", str(disk)], capture_output=True)
+
+
+def test_a_fleet_reports_every_robot_even_after_an_internal_error(workspace, monkeypatch):
+    import armcal.batch as fleet
+
+    other = workspace / "other"
+    other.mkdir()
+    copy_example("theodolite", other)
+    real_run = fleet.run
+
+    def failing(spec, *args):
+        if spec.parent == other:
+            raise ZeroDivisionError("a bug")
+        return real_run(spec, *args)
+
+    monkeypatch.setattr(fleet, "run", failing)
+    outcomes = fleet.batch([workspace / "spec.yaml", other / "spec.yaml"], workspace / "fleet", pdf=False, workers=1)
+    statuses = [o["status"] for o in outcomes]
+    assert statuses == ["converged", "internal_error"]
+    assert "ZeroDivisionError: a bug" in outcomes[1]["log"] and fleet.exit_code(outcomes) == fleet.INTERNAL
+    files = fleet.summary_files(workspace / "fleet")
+    fleet.write_summary(files, outcomes, "table")
+    assert json.loads(files[0].read_text())["outcomes"][1]["status"] == "internal_error"
+
+
+def test_a_blocked_or_read_only_output_folder_is_a_user_error(workspace, tmp_path_factory):
+    (workspace / "blocker").write_text("a file where a folder should be")
+    blocked = armcal("run", workspace / "spec.yaml", "--out", workspace / "blocker" / "out", "--no-pdf")
+    assert blocked.returncode == 1 and "is a file; the output needs a folder there" in blocked.stderr and "Traceback" not in blocked.stderr
+    if os.geteuid() != 0:
+        pytest.skip("a read-only mount needs root (permission bits do not stop root)")
+    disk = tmp_path_factory.mktemp("readonly")
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=1m", "tmpfs", str(disk)], capture_output=True).returncode != 0:
+        pytest.skip("mounting a tmpfs is not allowed here")
+    try:
+        result = armcal("run", workspace / "spec.yaml", "--out", disk / "out", "--no-pdf")
+        assert result.returncode == 1 and "Traceback" not in result.stderr and "Read-only file system" in result.stderr, result.stderr
+    finally:
+        subprocess.run(["umount", str(disk)], capture_output=True)

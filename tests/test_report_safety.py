@@ -273,3 +273,17 @@ def test_report_on_a_tampered_results_file_gives_one_message(tmp_path, kind):
     result = armcal("report", path, "--no-pdf", timeout=120)
     assert_user_error(result, f"error: {path}")
     assert len(result.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    "body, said",
+    [
+        ("{{ 'x'.center(10**9) }}", "a width above 1000000 given to a string method"),
+        ("{{ '%0999999999d' % 1 }}", "a width above 1000000 in a % format"),
+        ("{% set s = namespace(v='ab') %}{% for i in range(60) %}{% set s.v = s.v ~ s.v %}{% endfor %}{{ s.v }}", "more than 256 MiB of text"),
+    ],
+)
+def test_widths_and_doubling_concatenations_are_bounded(tmp_path, body, said):
+    (tmp_path / "certificate.html.j2").write_text(body)
+    with pytest.raises(UserError, match=said):
+        render_html({}, [tmp_path])

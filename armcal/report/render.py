@@ -11,6 +11,7 @@ import json
 import math
 import mimetypes
 import os
+import re
 import stat
 import traceback
 from contextlib import contextmanager
@@ -19,6 +20,7 @@ from pathlib import Path
 from urllib.parse import unquote, urlparse
 
 import jinja2
+from jinja2.compiler import CodeGenerator
 from jinja2.loaders import split_template_path
 from jinja2.sandbox import SandboxedEnvironment, SecurityError, safe_range
 from pydantic import ValidationError
@@ -43,6 +45,7 @@ TEXT_LIMIT = 256 * MIB  # text one render may make: each value it prints and eac
 RANGE_LIMIT = 1_000_000  # items of all range() calls of one render (each at most the sandbox's 100000)
 REPEAT_LIMIT = 1_000_000  # items of a string or list repeated with *
 NUMBER_BITS = 128  # integers computed with * and ** stay below 2**128
+FORMAT_WIDTH = re.compile(r"%[-+ #0]*(\d+)")  # the width of each % conversion
 
 
 def template_folders(user_folder: Path | None) -> list[Path]:
@@ -107,11 +110,22 @@ class FolderLoader(jinja2.BaseLoader):
         raise jinja2.TemplateNotFound(template)
 
 
+class CountingCodeGenerator(CodeGenerator):
+    """Jinja's code generator with every ``~`` concatenation's result counted by the environment's text limit."""
+
+    def visit_Concat(self, node, frame) -> None:
+        self.write("environment.counted(")
+        super().visit_Concat(node, frame)
+        self.write(")")
+
+
 class CertificateEnvironment(SandboxedEnvironment):
     """The sandbox (a template cannot reach Python internals) with bounds on what one render may build:
-    range() items, repetition with *, integer size, and text (each printed value and each join, counted together)."""
+    range() items, repetition with *, integer size, widths given to str methods and % formats, and text (each
+    printed value, each ~ concatenation and each join, counted together)."""
 
-    intercepted_binops = frozenset({"*", "**"})
+    intercepted_binops = frozenset({"*", "**", "%"})
+    code_generator_class = CountingCodeGenerator
 
     def __init__(self, folders: list[Path]):
         super().__init__(loader=FolderLoader(folders), autoescape=True, undefined=jinja2.StrictUndefined, finalize=self.printed)
@@ -133,8 +147,21 @@ class CertificateEnvironment(SandboxedEnvironment):
             raise SecurityError(f"the template's loops run over more than {RANGE_LIMIT} range() items")
         return items
 
+    def counted(self, text):
+        """A ``~`` concatenation's result, counted (so a string doubled in a loop stops at the text limit)."""
+        self.count_text(len(text))
+        return text
+
+    def call(self, __context, __obj, *args, **kwargs):
+        """Calls, with no integer argument above REPEAT_LIMIT for a str method (center, ljust, zfill, format ...)."""
+        if isinstance(getattr(__obj, "__self__", None), str) and any(_integers(a) and abs(a) > REPEAT_LIMIT for a in (*args, *kwargs.values())):
+            raise SecurityError(f"a width above {REPEAT_LIMIT} given to a string method")
+        return super().call(__context, __obj, *args, **kwargs)
+
     def call_binop(self, context, operator: str, left, right):
-        """``*`` and ``**`` with bounded results: no gigabyte strings or million-digit numbers from one expression."""
+        """``*``, ``**`` and ``%`` with bounded results: no gigabyte strings or million-digit numbers from one expression."""
+        if operator == "%" and isinstance(left, str) and any(int(width) > REPEAT_LIMIT for width in FORMAT_WIDTH.findall(left)):
+            raise SecurityError(f"a width above {REPEAT_LIMIT} in a % format")
         if operator == "**" and _integers(left, right) and abs(left) > 1 and right * math.log2(abs(left)) >= NUMBER_BITS:
             raise SecurityError(f"{left} ** {right} is too large (integers stay below 2**{NUMBER_BITS})")
         if operator == "*":

@@ -12,6 +12,7 @@ from armcal.errors import Issue, SpecError, UserError
 from armcal.diagnose.stage import identify_and_diagnose
 from armcal.evaluate.evidence import evidence
 from armcal.evaluate.grid import evaluation_tasks
+from armcal.evaluate.residuals import residuals_csv
 from armcal.evaluate.summary import summarize
 from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import draw_plots
@@ -78,6 +79,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     files = {
         "results.json": json.dumps(results.model_dump(mode="json"), indent=2) + "\n",
         "calibrated.yaml": calibrated_text(loaded, results, calibrated, out_dir),
+        "residuals.csv": residuals_csv(calibrated, calibration.rows, validation.rows if validation is not None else None, spec.robot.units),
         **plots,
         **certificate_files(results.model_dump(mode="json"), plots, pdf, user_templates),
     }

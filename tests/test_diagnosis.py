@@ -5,7 +5,7 @@ import pytest
 from conftest import SPECS
 
 from armcal.devices import device_model
-from armcal.diagnose.loop import run_diagnosis, weighted_rms
+from armcal.diagnose.loop import run_diagnosis
 from armcal.diagnose.score import score_tests
 from armcal.effects.library import EffectSpec
 from armcal.effects.model import EffectSet
@@ -21,6 +21,12 @@ TRACKER = ("puma560_six.yaml", [("  count: 200\n", "  count: 240\n"), ("  count:
 BALLBAR = ("goswami_puma560.yaml", [("  longitudes: 23", "  longitudes: 9"), ("  longitudes: 28", "  longitudes: 9")])
 SONIC = ("puma560_dh.yaml", [("  points_per_joint: 20", "  points_per_joint: 24")])
 UNIT = {"angle": "rad", "length": "mm"}
+
+
+def weighted_rms(problem, theta) -> float:
+    """RMS of the weighted residuals (noise sigmas)."""
+    r, _ = problem.evaluate(theta)
+    return float(np.sqrt(np.mean(r**2)))
 
 
 def _spec(tmp_path, base, simulate_yaml: str):

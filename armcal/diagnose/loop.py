@@ -4,16 +4,27 @@ All candidates live in one problem with their parameters fixed at zero; adding
 one frees its parameters. The base set is decided once, at the design point (the
 start of the first fit): a candidate's parameters join it only where the geometry
 cannot absorb them there (identifiability.extend), and every refit and k-fold fold
-keeps that set. A round accepts the candidate with the largest score
-statistic among those significant after Holm's correction only if the error on
-data the fit did not see improves (the validation set, else k-fold cross
-validation). The loop ends when nothing is significant, the held-out error does
-not improve, or the round limit is reached. When the residuals still exceed the
-noise model and nothing explains them, the result is flagged ``unexplained``.
+keeps that set.
+
+A round ranks the candidates significant after Holm's correction by strength (the
+-log p-value of their score statistic, which compares statistics of different
+degrees of freedom) and tries them in that order, at most MAX_TRIALS, until one
+holds out: its held-out error must fall by more than its own sampling noise. The
+held-out errors are those of k-fold cross-validation over the calibration poses
+(``diagnose.holdout: kfold``, the default: the validation set stays untouched until
+the final figures) or of the validation set (``holdout: validation``, whose figures
+are then no longer independent); the test is one-sided and paired over poses: the
+mean change of a pose's squared weighted error must be below -HOLDS_OUT standard
+errors. The loop ends when nothing is significant, nothing holds out, or the round
+limit is reached. An accepted effect whose refit still fails the noise check while a
+candidate of the same kind on the same joint (or instrument part) stays significant
+is "partly explained". The result is ``unexplained`` whenever the final fit's
+residuals exceed the noise model.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -34,7 +45,9 @@ from armcal.kinematics.params import ParameterSet
 from armcal.spec.sections import Diagnose, Fit
 
 
-RIVAL = 0.95  # a candidate whose statistic is this close to the best's explains the data about as well
+RIVAL = 0.95  # a candidate whose strength is this close to the accepted one's explains the data about as well
+MAX_TRIALS = 8  # candidates tried per round, strongest first, before the round gives up
+HOLDS_OUT = 2.0  # standard errors by which the held-out error must fall (one-sided, about 2.3 % by chance)
 
 
 @dataclass(frozen=True)
@@ -44,6 +57,7 @@ class Round:
     theta_before: np.ndarray
     theta_after: np.ndarray
     note: str  # why the round ended as it did
+    partly_explained: bool = False  # the accepted effect left part of its signature (module docstring)
 
 
 @dataclass(frozen=True)
@@ -55,6 +69,7 @@ class Diagnosis:
     problem: Problem  # calibration data, all candidates
     validation: Problem | None
     fit: FitResult  # the final fit
+    chosen_on: str  # the data that judged the candidates: kfold (calibration poses) or validation
 
 
 def with_free(problem: Problem, names: set[str], free: bool = True) -> Problem:
@@ -63,13 +78,8 @@ def with_free(problem: Problem, names: set[str], free: bool = True) -> Problem:
     return replace(problem, parameters=ParameterSet(entries))
 
 
-def weighted_rms(problem: Problem, theta: np.ndarray) -> float:
-    r, _ = problem.evaluate(theta)
-    return float(np.sqrt(np.mean(r**2)))
-
-
 class _Context:
-    """What every round needs: the model, the data and the settings."""
+    """What every round needs: the model, the data, the settings, and the data that judge a candidate."""
 
     def __init__(self, kinematics, device, calibration, validation, effects, fit_settings, settings, instrument_moved):
         self.kinematics, self.device, self.calibration = kinematics, device, calibration
@@ -78,25 +88,54 @@ class _Context:
         if validation is not None:
             problem = build_problem(kinematics, device, validation, effects)
             self.validation = held_out(problem, kinematics, validation, instrument_moved)
+        self.judge = "validation" if settings.holdout == "validation" and self.validation is not None else "kfold"
+        self.pose = np.unique(np.round(np.nan_to_num(calibration.q), 9), axis=0, return_inverse=True)[1].ravel()
 
-    def held_out_error(self, problem: Problem, theta: np.ndarray, free: set[str], identifiability: Identifiability) -> float:
-        """Weighted RMS on the validation set, else over k folds each fitted without its own samples
-        (on the full fit's base set)."""
-        if self.validation is not None:
-            return weighted_rms(self.validation, theta)
+    def held_out_errors(self, problem: Problem, theta: np.ndarray, free: set[str], identifiability: Identifiability) -> np.ndarray:
+        """Each held-out pose's sum of squared weighted residuals: of the validation set's samples, or of the
+        calibration poses, each predicted by a fit (on the full fit's base set) of the folds without it."""
+        if self.judge == "validation":
+            r, _ = self.validation.evaluate(theta)
+            return np.bincount(self.validation.residuals.sample[self.validation.residuals.sample >= 0], r[self.validation.residuals.sample >= 0] ** 2)
         folds = self.settings.folds
-        fold = np.arange(len(self.calibration)) % folds
-        squares, count = 0.0, 0
+        fold = self.pose % folds
+        errors = np.zeros(self.pose.max() + 1)
         for k in range(folds):
+            rows = np.flatnonzero(fold == k)
             train = self._problem(self.calibration.subset(np.flatnonzero(fold != k)), problem, free)
-            test = self._problem(self.calibration.subset(np.flatnonzero(fold == k)), problem, free)
+            test = self._problem(self.calibration.subset(rows), problem, free)
             r, _ = test.evaluate(fit(train, self.fit_settings, start=theta, identifiability=identifiability).theta)
-            squares, count = squares + float(r @ r), count + len(r)
-        return float(np.sqrt(squares / count))
+            sample = test.residuals.sample
+            np.add.at(errors, self.pose[rows[sample[sample >= 0]]], r[sample >= 0] ** 2)
+        return errors
 
     def _problem(self, data: Measurements, like: Problem, free: set[str]) -> Problem:
         problem = build_problem(self.kinematics, self.device, data, self.effects)
         return with_free(replace(problem, parameters=like.parameters), free) if free else replace(problem, parameters=like.parameters)
+
+
+def holds_out(before: np.ndarray, after: np.ndarray) -> tuple[bool, float]:
+    """A paired one-sided test over held-out poses: does the squared error fall by more than HOLDS_OUT standard
+    errors of its mean change? Returns (it does, the change in standard errors)."""
+    change = after - before
+    spread = float(np.std(change, ddof=1)) / np.sqrt(len(change)) if len(change) > 1 else 0.0
+    z = float(np.mean(change)) / spread if spread > 0 else (-np.inf if np.mean(change) < 0 else 0.0)
+    return bool(z < -HOLDS_OUT), z
+
+
+def strength(test: Test) -> float:
+    """-log of a test's p-value, which compares statistics of different degrees of freedom, computed where the
+    p-value itself underflows from the upper tail of chi^2: log Q(a, y) ~ (a-1) log y - y - log Gamma(a) + log(1 + (a-1)/y + ...)."""
+    if test.p_value > 1e-300:
+        return -math.log(test.p_value)
+    a, y = max(test.dof, 1) / 2, test.statistic / 2
+    series = 1 + (a - 1) / y + (a - 1) * (a - 2) / y**2 + (a - 1) * (a - 2) * (a - 3) / y**3
+    return -((a - 1) * math.log(y) - y - math.lgamma(a) + math.log(series))
+
+
+def _kind(effect: EffectSpec) -> tuple:
+    """What a further candidate of the same kind shares with an effect: its type and what it acts on (not an order)."""
+    return (effect.type, effect.joint, effect.microphone, effect.pivot)
 
 
 def run_diagnosis(
@@ -123,30 +162,55 @@ def run_diagnosis(
     result = fit(problem, fit_settings, start=theta0, identifiability=design)
     rounds, added, remaining = [], [], list(pool)
     for _ in range(settings.max_rounds):
-        r, J = problem.evaluate(result.theta)
-        columns = [J[:, [problem.parameters.index(p.name) for p in c.parameters()]] for c in remaining]
-        tests = holm(score_tests(r, J[:, result.base], columns, remaining), settings.alpha)
-        significant = [t for t in tests if t.significant]
+        tests = _tests(problem, result, remaining, settings.alpha)
+        significant = sorted((t for t in tests if t.significant), key=strength, reverse=True)
         if not significant:
             rounds.append(Round(tests, None, result.theta, result.theta, "no candidate is significant"))
             break
-        best = max(significant, key=lambda t: t.statistic).effect
-        names = {p.name for p in best.parameters()}
-        trial_problem = with_free(problem, names)
-        trial_base = extend(result.identifiability, J_design, problem.parameters, [p.name for p in best.parameters()])
-        trial = fit(trial_problem, fit_settings, start=result.theta, identifiability=trial_base)
-        before = context.held_out_error(problem, result.theta, set(), result.identifiability)
-        after = context.held_out_error(trial_problem, trial.theta, names, trial_base)
-        if not after < before:
-            rounds.append(Round(tests, None, result.theta, result.theta, f"{best.id} did not lower the held-out error"))
+        _mark_partly_explained(rounds, significant, result)
+        before = context.held_out_errors(problem, result.theta, set(), result.identifiability)
+        accepted, tried = None, []
+        for test in significant[:MAX_TRIALS]:
+            names = [p.name for p in test.effect.parameters()]
+            trial_problem = with_free(problem, set(names))
+            trial_base = extend(result.identifiability, J_design, problem.parameters, names)
+            trial = fit(trial_problem, fit_settings, start=result.theta, identifiability=trial_base)
+            ok, z = holds_out(before, context.held_out_errors(trial_problem, trial.theta, set(names), trial_base))
+            tried.append(f"{test.effect.id} (held-out change {z:+.1f} standard errors)")
+            if ok:
+                accepted = (test, trial_problem, trial)
+                break
+        if accepted is None:
+            rounds.append(Round(tests, None, result.theta, result.theta, f"nothing held out: {'; '.join(tried)}"))
             break
-        rivals = [t.effect.id for t in significant if t.effect.id != best.id and t.statistic >= RIVAL * max(t.statistic for t in significant)]
-        note = f"{best.id} added" + (f"; {', '.join(rivals)} would explain the data almost as well" if rivals else "")
-        rounds.append(Round(tests, best, result.theta, trial.theta, note))
+        test, trial_problem, trial = accepted
+        top = strength(test)
+        rivals = [t.effect.id for t in significant if t is not test and strength(t) >= RIVAL * top]
+        note = f"{test.effect.id} added" + (f" after {'; '.join(tried[:-1])}" if len(tried) > 1 else "")
+        note += f"; {', '.join(rivals)} would explain the data almost as well" if rivals else ""
+        rounds.append(Round(tests, test.effect, result.theta, trial.theta, note))
         problem, result = trial_problem, trial
-        added.append(best)
-        remaining = [c for c in remaining if c.id != best.id]
-    noise_rejected = result.uncertainty.p_value < NOISE_CHECK_LEVEL
-    unexplained = noise_rejected and (not rounds or rounds[-1].accepted is None)
+        added.append(test.effect)
+        remaining = [c for c in remaining if c.id != test.effect.id]
+    else:
+        if rounds and rounds[-1].accepted is not None:  # the round limit: one more look at what the last refit left
+            _mark_partly_explained(rounds, [t for t in _tests(problem, result, remaining, settings.alpha) if t.significant], result)
+    unexplained = result.uncertainty.p_value < NOISE_CHECK_LEVEL
     validation_problem = replace(context.validation, parameters=problem.parameters) if context.validation else None
-    return Diagnosis(rounds, added, list(declared) + added, unexplained, problem, validation_problem, result)
+    return Diagnosis(rounds, added, list(declared) + added, unexplained, problem, validation_problem, result, context.judge)
+
+
+def _tests(problem: Problem, result: FitResult, remaining: list[EffectSpec], alpha: float) -> list[Test]:
+    """Score tests of the remaining candidates at the fit, Holm-corrected."""
+    r, J = problem.evaluate(result.theta)
+    columns = [J[:, [problem.parameters.index(p.name) for p in c.parameters()]] for c in remaining]
+    return holm(score_tests(r, J[:, result.base], columns, remaining), alpha)
+
+
+def _mark_partly_explained(rounds: list[Round], significant: list[Test], result: FitResult) -> None:
+    """The last accepted effect left part of its signature: the refit still fails the noise check and a candidate
+    of the same kind stays significant."""
+    if not rounds or rounds[-1].accepted is None or result.uncertainty.p_value >= NOISE_CHECK_LEVEL:
+        return
+    if any(_kind(t.effect) == _kind(rounds[-1].accepted) for t in significant):
+        rounds[-1] = replace(rounds[-1], partly_explained=True)

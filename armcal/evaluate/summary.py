@@ -8,7 +8,7 @@ from armcal.diagnose.loop import Diagnosis
 from armcal.diagnose.stage import Calibration
 from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
-from armcal.evaluate.residuals import before_after, improvement, readings_residuals, residual_unit
+from armcal.evaluate.residuals import before_after, distance_before_after, improvement, readings_residuals, residual_unit
 from armcal.identify.uncertainty import residual_stats
 from armcal.kinematics.parallel import parallel_axes
 from armcal.results.build import build_results, parameter_rows
@@ -16,6 +16,12 @@ from armcal.results.model import Results
 from armcal.spec import LoadedSpec
 from armcal.spec.sections import EFFECT_TYPES
 from armcal.units import from_internal
+
+
+CHOSEN_ON = {
+    "kfold": "the calibration data, by {folds}-fold cross-validation over its poses (the validation data did not choose)",
+    "validation": "the validation data (diagnose.holdout: validation): its figures are not independent of that choice",
+}
 
 
 def reported_names(calibration: Calibration) -> set[str]:
@@ -65,6 +71,7 @@ def summarize(
         },
         parameters=parameter_rows(loaded, [e for e, _, _ in entries], np.array([v for _, v, _ in entries]), np.array([s for _, _, s in entries]), identified_names),
         residuals={"calibration": calibration_pair, "validation": validation_pair},
+        residuals_3d=_distances(problem, calibration.validation, start, identified.theta),
         improvement_factor={
             "calibration": improvement(calibration_pair),
             "validation": improvement(validation_pair) if validation_pair else None,
@@ -88,6 +95,14 @@ def summarize(
         correlations=[list(c) for c in uncertainty.correlations],
         campaign=measured,
     )
+
+
+def _distances(problem, validation, start: np.ndarray, theta: np.ndarray) -> dict | None:
+    """Per-pose 3D distance statistics (mm) before and after, where the instrument measures points."""
+    calibration = distance_before_after(problem, start, theta)
+    if calibration is None:
+        return None
+    return {"unit": "mm", "calibration": calibration, "validation": distance_before_after(validation, start, theta) if validation else None}
 
 
 def _design_point(identified, start: np.ndarray, problem) -> str:
@@ -139,6 +154,7 @@ def diagnosis_block(loaded: LoadedSpec, calibration: Calibration) -> dict:
                 ],
                 "accepted": effect_result(loaded, round_.accepted, problem, round_.theta_after, final_std) if round_.accepted else None,
                 "note": round_.note,
+                "partly_explained": round_.partly_explained,
                 "rms_before": {"calibration": rms(problem, round_.theta_before), "validation": rms(validation, round_.theta_before)},
                 "rms_after": {"calibration": rms(problem, round_.theta_after), "validation": rms(validation, round_.theta_after)},
             }
@@ -148,4 +164,5 @@ def diagnosis_block(loaded: LoadedSpec, calibration: Calibration) -> dict:
         "rounds": rounds,
         "added_effects": [effect_result(loaded, e, problem, theta, final_std) for e in diagnosis.added],
         "unexplained": diagnosis.unexplained,
+        "chosen_on": CHOSEN_ON[diagnosis.chosen_on].format(folds=loaded.spec.diagnose.folds),
     }

@@ -109,7 +109,31 @@ def _diagnosis(results: dict) -> dict:
                 "after": f"{number(r['rms_after']['calibration'])} / {number(r['rms_after']['validation'])} {unit}",
             }
         )
-    return {"rounds": rounds, "unexplained": diagnosis["unexplained"], "added": ", ".join(e["type"] + (f" joint {e['joint']}" if e["joint"] else "") for e in diagnosis["added_effects"]) or "none"}
+    partly = [r["accepted"] for r in diagnosis["rounds"] if r.get("partly_explained") and r["accepted"]]
+    return {
+        "rounds": rounds,
+        "unexplained": diagnosis["unexplained"],
+        "added": ", ".join(_effect_name(e) for e in diagnosis["added_effects"]) or "none",
+        "partly": ", ".join(_effect_name(e) for e in partly),
+        "chosen_on": diagnosis.get("chosen_on") or "the data given (not recorded)",
+    }
+
+
+def _effect_name(effect: dict) -> str:
+    return effect["type"] + (f" joint {effect['joint']}" if effect["joint"] else "")
+
+
+def _distance_rows(results: dict) -> list[dict]:
+    """Per-pose 3D distance statistics, before and after, for calibration and validation."""
+    block = results.get("residuals_3d")
+    rows = []
+    for name in ("calibration", "validation"):
+        pair = (block or {}).get(name)
+        for moment in ("before", "after") if pair else ():
+            s = pair[moment]
+            label = f"{name}, {'design model' if moment == 'before' else 'calibrated model'}"
+            rows.append({"data": label, "n": str(s["n"]), "mean": number(s["mean"]), "rms": number(s["rms"]), "max": number(s["max"])})
+    return rows
 
 
 def _grid(results: dict) -> list[dict]:
@@ -229,6 +253,8 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
         "unit": results["device"]["unit"],
         "parameters": _parameter_rows(results),
         "statistics": _stats_rows(results),
+        "distances": _distance_rows(results),
+        "distance_unit": (results.get("residuals_3d") or {}).get("unit", ""),
         "grid": _grid(results),
         "grid_tcp": (results["evaluation"].get("grid_task") or {}).get("tool_centre_point", ""),
         "grid_frame": (results["evaluation"].get("grid_task") or {}).get("task_frame", ""),

@@ -94,6 +94,26 @@ class Residuals(_Frozen):
     validation: BeforeAfter | None
 
 
+class Stats3D(_Frozen):
+    """Per-pose 3D distance errors |measured - predicted| of a point-measuring instrument."""
+
+    n: int
+    mean: float
+    rms: float
+    max: float
+
+
+class BeforeAfter3D(_Frozen):
+    before: Stats3D
+    after: Stats3D
+
+
+class Residuals3D(_Frozen):
+    unit: str
+    calibration: BeforeAfter3D
+    validation: BeforeAfter3D | None
+
+
 class ImprovementFactor(_Frozen):
     calibration: float
     validation: float | None
@@ -134,6 +154,7 @@ class Round(_Frozen):
     candidates: list[Candidate]
     accepted: EffectResult | None
     note: str
+    partly_explained: bool = False  # the accepted effect left part of its signature
     rms_before: RMSPair
     rms_after: RMSPair
 
@@ -142,6 +163,7 @@ class Diagnosis(_Frozen):
     rounds: list[Round]
     added_effects: list[EffectResult]
     unexplained: bool
+    chosen_on: str | None = None  # the data that judged the candidates (diagnose.holdout)
     evidence: dict | None = None
     plots: list[str] = []
 
@@ -193,6 +215,7 @@ class Results(_Frozen):
     identifiability: IdentifiabilityInfo
     parameters: list[ParameterResult]
     residuals: Residuals
+    residuals_3d: Residuals3D | None = None  # per pose, where the instrument measures points
     improvement_factor: ImprovementFactor
     diagnosis: Diagnosis
     evaluation: dict

@@ -183,7 +183,12 @@ class Diagnose(SpecModel):
     max_rounds: int = Field(3, ge=0, description="effects added at most (one per round)")
     candidates: list[Literal[EFFECT_TYPES]] | None = Field(None, description="effect types tried (default: all the data allow)")  # type: ignore[valid-type]
     harmonic_orders: int = Field(3, ge=1, description="gear harmonics tried up to this order")
-    holdout: Literal["validation", "kfold"] = Field("validation", description="data that must confirm an effect: the validation set, or k-fold cross-validation")
+    holdout: Literal["validation", "kfold"] = Field(
+        "validation",
+        description="data that must confirm an effect: the validation set (its figures are then not independent of the choice), "
+        "or k-fold cross-validation over the calibration poses (the validation set stays untouched for the final figures); "
+        "without validation data, k-fold",
+    )
     folds: int = Field(5, ge=2, description="k of the k-fold cross-validation")
 
 

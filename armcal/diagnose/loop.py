@@ -10,10 +10,10 @@ A round ranks the candidates significant after Holm's correction by strength (th
 -log p-value of their score statistic, which compares statistics of different
 degrees of freedom) and tries them in that order, at most MAX_TRIALS, until one
 holds out: its held-out error must fall by more than its own sampling noise. The
-held-out errors are those of k-fold cross-validation over the calibration poses
-(``diagnose.holdout: kfold``, the default: the validation set stays untouched until
-the final figures) or of the validation set (``holdout: validation``, whose figures
-are then no longer independent); the test is one-sided and paired over poses: the
+held-out errors are those of the validation set (``diagnose.holdout: validation``,
+the default; its figures are then no longer independent) or of k-fold cross-validation
+over the calibration poses (``holdout: kfold``, and whenever there are no validation
+data: the validation set stays untouched until the final figures); the test is one-sided and paired over poses: the
 mean change of a pose's squared weighted error must be below -HOLDS_OUT standard
 errors. The loop ends when nothing is significant, nothing holds out, or the round
 limit is reached. An accepted effect whose refit still fails the noise check while a

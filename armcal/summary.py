@@ -87,6 +87,25 @@ def forward_kinematics_report(loaded: LoadedSpec, q_text: str, target: str | Non
     )
 
 
+VARIANCE_VERDICTS = {
+    "consistent": "consistent with the declared {declared:.4g} {unit}",
+    "declared_too_small": "the declared {declared:.4g} {unit} is too small (p = {p:.2g}): the instrument or the model is worse than declared",
+    "declared_too_large": "the declared {declared:.4g} {unit} is too large (p = {p:.2g})",
+}
+
+
+def noise_lines(noise) -> list[str]:
+    """The noise estimated from the data, one line per group, each against its declared sigma."""
+    lines = [f"  noise from the data ({noise.method.split(' (')[0]}, {noise.rounds} rounds"
+             + ("" if noise.converged else ", NOT converged") + "):"]
+    for g in noise.groups:
+        line = f"    {g.group}: sigma {g.sigma:.4g} +- {g.std:.2g} {g.unit} ({g.readings} readings)"
+        if g.test is not None:
+            line += "; " + VARIANCE_VERDICTS[g.test.verdict].format(declared=g.declared, unit=g.unit, p=g.test.p_value)
+        lines.append(line)
+    return lines
+
+
 def run_summary(outcome) -> str:
     """What `armcal run` prints: status, identifiability, residuals before/after, files written."""
     r = outcome.results
@@ -101,7 +120,10 @@ def run_summary(outcome) -> str:
     if r.residuals.validation is not None:
         val = r.residuals.validation
         lines.append(f"  validation  RMS {val.before.rms:.4g} -> {val.after.rms:.4g} {unit} (x{r.improvement_factor.validation:.3g})")
-    lines.append(f"  noise check chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g} (p = {r.noise_check.p_value:.3g})")
+    if r.noise is not None:
+        lines += noise_lines(r.noise)
+    lines.append(f"  noise check chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g} (p = {r.noise_check.p_value:.3g})"
+                 + (", by construction with the noise estimated" if r.noise is not None else ""))
     if r.noise_check.verdict != "consistent":
         lines.append(f"  {NOISE_VERDICTS[r.noise_check.verdict]}")
     for flat in r.identifiability.flat_directions:

@@ -167,11 +167,22 @@ def gravity_torque(frames: list[np.ndarray], joint: int) -> np.ndarray:
     return np.sum(axis * np.cross(levers, weight), axis=-1)
 
 
+def moment_regressor(frames: list[np.ndarray], joint: int, term: str) -> np.ndarray:
+    """Deflection of joint ``joint`` per unit of the product m<c><k>: axis c of F_k . (g_hat x z_(joint-1)); w (a
+    prismatic joint): z_(joint-1) . g_hat."""
+    down = np.array(GRAVITY) / np.linalg.norm(GRAVITY)
+    axis = frames[joint - 1][..., :3, 2]
+    if term == "w":
+        return axis @ down
+    link, c = int(term[2:]), "xyz".index(term[1])
+    return np.sum(frames[link][..., :3, c] * np.cross(down, axis), axis=-1)
+
+
 class NumpyCampaign:
     """Weighted residuals (predicted - measured) / sigma of one data set, with joint-side effects and a sensor scale.
 
     Effects (armcal's candidate descriptions, parameters named ``<id>.<field>``): encoder scale s q, gear harmonic
-    A sin(h r q) + B cos(h r q), compliance c tau_g(q), thermal drift of every length by 1 + k t, sensor scale.
+    A sin(h r q) + B cos(h r q), compliance c tau_g(q) or its mass-moment products, a coupling c q_i, thermal drift of every length by 1 + k t, sensor scale.
     """
 
     def __init__(self, robot, device, names: list[str], data, effects=()):
@@ -206,9 +217,14 @@ class NumpyCampaign:
                 joints[:, j] += value("scale") * q[:, j]
             elif e.type == "gear_harmonic":
                 joints[:, j] += value("sin") * np.sin(e.order * e.ratio * q[:, j]) + value("cos") * np.cos(e.order * e.ratio * q[:, j])
+            elif e.type == "joint_compliance" and e.terms:
+                frames = self.robot.frames(v, q) if frames is None else frames
+                joints[:, j] += sum(value(term) * moment_regressor(frames, e.joint, term) for term in e.terms)
             elif e.type == "joint_compliance" and not e.masses:
                 frames = self.robot.frames(v, q) if frames is None else frames
                 joints[:, j] += value("compliance") * gravity_torque(frames, e.joint)
+            elif e.type == "joint_coupling":
+                joints[:, j] += value("coefficient") * q[:, e.source_joint - 1]
             elif e.type == "thermal_drift" and e.source == "time":
                 factor = factor + value("coefficient") * t
             elif e.type != "sensor_scale":

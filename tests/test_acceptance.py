@@ -10,7 +10,9 @@ import pytest
 from conftest import copy_example
 from test_diagnosis import TRACKER, _data, _spec
 
-from armcal.diagnose.loop import holds_out, run_diagnosis
+from armcal.diagnose.loop import _Context, folds_along, holds_out, run_diagnosis
+from armcal.effects.library import EffectSpec, coupling
+from armcal.effects.model import EffectSet
 from armcal.pipeline import run
 from armcal.spec.sections import Diagnose, Fit
 
@@ -30,15 +32,32 @@ def test_the_paired_test_against_its_normal_approximation():
 
 
 def test_the_validation_set_does_not_choose(tmp_path):
-    """With k-fold, validation readings a metre off change nothing the diagnosis decides."""
+    """With k-fold (the default), validation readings a metre off change nothing the diagnosis decides."""
     loaded = _spec(tmp_path, TRACKER, f"simulate:\n  seed: 9\n  effects:\n{TWO_EFFECTS}")
     kinematics, device, calibration, validation = _data(loaded, tmp_path)
     spoiled = replace(validation, readings={k: v + 1000.0 for k, v in validation.readings.items()})
-    kept = run_diagnosis(kinematics, device, calibration, validation, [], Fit(), Diagnose(holdout="kfold"))
-    other = run_diagnosis(kinematics, device, calibration, spoiled, [], Fit(), Diagnose(holdout="kfold"))
+    kept = run_diagnosis(kinematics, device, calibration, validation, [], Fit(), Diagnose())
+    other = run_diagnosis(kinematics, device, calibration, spoiled, [], Fit(), Diagnose())
     assert [e.id for e in kept.added] == [e.id for e in other.added] and kept.chosen_on == "kfold"
     assert {(e.type, e.joint) for e in kept.added} == {("gear_harmonic", 2), ("backlash", 3)}
     np.testing.assert_array_equal(kept.fit.theta, other.fit.theta)
+
+
+def test_a_joint_effect_is_cross_validated_over_contiguous_ranges_of_its_joint(tmp_path):
+    """Folds along joint j hold out contiguous ranges of q_j (every pose of fold k below every pose of fold k+1),
+    equal in size to one pose; a coupling follows its driving joint, an instrument's effect the interleaved folds."""
+    loaded = _spec(tmp_path, TRACKER, "simulate: {seed: 9}\n")
+    kinematics, device, calibration, validation = _data(loaded, tmp_path)
+    context = _Context(kinematics, device, calibration, validation, EffectSet(), Fit(), Diagnose(), False)
+    poses = np.unique(np.round(calibration.q, 9), axis=0)
+    for joint in range(1, kinematics.dof + 1):
+        fold = context.folds[joint]
+        assert np.ptp(np.bincount(fold)) <= 1
+        ranges = [(poses[fold == k, joint - 1].min(), poses[fold == k, joint - 1].max()) for k in range(5)]
+        assert all(high < low for (_, high), (low, _) in zip(ranges, ranges[1:]))
+    assert folds_along(EffectSpec("gear_harmonic", joint=2, order=3)) == 2
+    assert folds_along(coupling(3, 2)) == 2
+    assert folds_along(EffectSpec("sensor_scale")) is None
 
 
 def test_a_round_limit_with_residuals_left_is_unexplained_and_partly_explained(tmp_path):

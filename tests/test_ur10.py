@@ -1,5 +1,7 @@
 """The whole loop on real data: the UR10 laser-tracker series of ../shared/data (skipped without them)."""
 
+import csv
+import math
 import subprocess
 import sys
 
@@ -38,12 +40,34 @@ def test_fit_series_c_validate_on_series_b(tmp_path):
     assert {p.held for p in results.identifiability.parallel_axes} == {"shoulder_lift.d", "elbow.d"}
     values = {p.name: p for p in results.parameters}
     assert all(values[n].value == values[n].nominal for n in ("shoulder_lift.d", "elbow.d"))
-    assert results.residuals.validation.after.rms < 0.89  # mm; 0.886 with the condition number at 3.7e6
+    # noise from the data (positions and orientations), the shoulder's compliance from UR's masses: issue 15's bound
+    assert results.residuals.validation.after.rms <= 0.45  # mm per coordinate, B held out (0.331 measured)
+    assert results.residuals_3d.validation.after.rms < 0.8  # mm per pose in 3D
     assert results.residuals.calibration.before.rms > 2.0  # mm: the nominal UR10, after registration
     assert results.residuals.calibration.after.rms < 0.5
     assert results.improvement_factor.validation > 2.5
     assert results.diagnosis.rounds  # the diagnosis ran; what it found is in docs/tutorials/ur10.md
     assert results.diagnosis.unexplained  # the residuals stay far above a 0.03 mm tracker noise
+    _check_noise(results, tmp_path / "out")
+
+
+def _check_noise(results, out) -> None:
+    """Each estimated sigma is the RMS of its group's final residuals (residuals.csv) on the group's redundancy, the
+    redundancies add up to readings - identified parameters (Foerstner), and the certificate shows what results.json holds."""
+    groups = {g.group: g for g in results.noise.groups}
+    assert set(groups) == {"position", "orientation"}
+    assert sum(g.redundancy for g in groups.values()) == pytest.approx(sum(g.readings for g in groups.values()) - results.identifiability.rank, abs=1e-6)
+    with (out / "residuals.csv").open() as f:
+        rows = [r for r in csv.DictReader(f) if r["data"] == "calibration"]
+    for name, channels in (("position", "xyz"), ("orientation", ("rx", "ry", "rz"))):
+        squares = [float(r["residual_after"]) ** 2 for r in rows if r["channel"] in channels]
+        group = groups[name]
+        assert len(squares) == group.readings
+        assert group.sigma == pytest.approx(math.sqrt(sum(squares) / group.redundancy), rel=2e-3)
+        assert group.test.verdict == "declared_too_small"  # 0.03 mm and 0.002 deg declared; the data say 0.28 and 0.034
+    html = (out / "certificate.html").read_text()
+    for group in groups.values():
+        assert f"{group.sigma:.4f} +- {group.std:.4f} {group.unit}" in html
 
 
 def test_validate_on_series_d_with_the_moved_tracker(tmp_path):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from armcal.devices.base import Channel, DeviceModel, Key
+from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.spec.device import BallBar
 
@@ -45,8 +45,12 @@ class BallBarModel(DeviceModel):
         centre = ca.vertcat(*(sym[f"pivot.{key[0]}.{c}"] for c in "xyz"))
         return ca.norm_2(pose[:3, 3] - centre) + self.spec.length.value - sym["bar.length"]
 
-    def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
-        return np.full(np.shape(np.atleast_2d(readings)), self.spec.noise)
+    def noise_sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
+        return np.full(np.shape(np.atleast_2d(readings)), declared(self.spec.noise))
+
+    def noise_keys(self, key: Key, channel: str) -> dict[str, str]:
+        pairing = f"{key[0]}-{key[1]}" + (f"+{key[2]}" if key[2] else "")
+        return {"target": key[1], "pairing": pairing}
 
     def measurable(self, key: Key, readings: np.ndarray) -> np.ndarray:
         """Within the LVDT travel: |length - mid-travel length| <= travel / 2."""

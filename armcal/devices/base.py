@@ -4,17 +4,28 @@ A device model maps the pose of a measured point in the robot base frame and
 the device parameters to readings: g(T, p_device). Samples are grouped by a
 key (which target, pivot, station...); h(q, p_robot, p_device) = g(fk(q, p_robot), p_device)
 is one CasADi Function per key, evaluated for all samples of the key at once.
+
+A reading's sigma is the device's noise model (``noise_sigma``) times the factor
+of its noise group where the noise was estimated from the data
+(identify/variance.py, ``with_noise_scale``). A group is the spec field that
+declares the reading's noise (its kind: positions, orientations...) and, as
+``noise_groups`` asks, its target, station, ball-bar pairing or microphone.
+A noise declared ``auto`` is the unit of its kind (1 mm, 1 rad) times its
+group's factor, so it has no value until it is estimated.
 """
 
 from __future__ import annotations
 
+import copy
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from functools import cache
+from types import MappingProxyType
 
 import casadi as ca
 import numpy as np
 
+from armcal.errors import UserError
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
 
@@ -61,9 +72,55 @@ class DeviceModel(ABC):
         readings = self.readings(key, pose, symbols(self.parameters, pd))
         return ca.Function(f"g_{self.type}", [pose, pd], [readings], ["T", "pd"], ["y"])
 
+    noise_scale: MappingProxyType = MappingProxyType({})  # noise group -> factor on noise_sigma, estimated from the data
+
     @abstractmethod
+    def noise_sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
+        """Standard deviation of each reading (N, channels) from the spec's noise model (auto: 1 mm or 1 rad)."""
+
     def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
-        """Standard deviation of each reading (N, channels) from the device's noise model."""
+        """Standard deviation of each reading (N, channels): the noise model, times the estimated factor of its group."""
+        sigma = np.array(self.noise_sigma(key, readings), dtype=float)
+        if not self.noise_scale and "auto" not in (getattr(self.spec, f) for f in self.spec.noise_fields()):
+            return sigma  # every sigma as the spec declares it
+        for c, channel in enumerate(self.channels(key)):
+            group = self.noise_group(key, channel.name)
+            if group in self.noise_scale:
+                sigma[:, c] *= self.noise_scale[group]
+            elif group is not None and getattr(self.spec, self.noise_field(key, channel.name)) == "auto":
+                raise UserError(
+                    f"the {self.noise_field(key, channel.name)} of {group!r} readings is auto: it has no value until it is "
+                    "estimated from the data (`armcal run`); declare a value to simulate or study with it"
+                )
+        return sigma
+
+    def noise_field(self, key: Key, channel: str) -> str | None:
+        """The spec field that declares this reading's noise (None: a spec pseudo-observation, never estimated)."""
+        return "noise"
+
+    def noise_kind(self, field: str) -> str:
+        """How a noise field's readings are named in a group: position, orientation, angle, length, range."""
+        return "length"
+
+    def noise_keys(self, key: Key, channel: str) -> dict[str, str]:
+        """What this reading can be grouped by besides its kind (target, station, pairing, microphone)."""
+        target = self.target(key)
+        return {"target": target} if target is not None else {}
+
+    def noise_group(self, key: Key, channel: str) -> str | None:
+        """The name of a reading's noise group under the spec's noise_groups, e.g. "position, target tmac"."""
+        field = self.noise_field(key, channel)
+        if field is None:
+            return None
+        keys = self.noise_keys(key, channel)
+        parts = [f"{name} {keys[name]}" for name in getattr(self.spec, "noise_groups", ("kind",)) if name != "kind" and name in keys]
+        return ", ".join([self.noise_kind(field), *parts])
+
+    def with_noise_scale(self, scale: dict[str, float]) -> "DeviceModel":
+        """The same instrument, its readings' sigmas scaled by group (the noise estimated from the data)."""
+        scaled = copy.copy(self)
+        scaled.noise_scale = MappingProxyType(dict(scale))
+        return scaled
 
     def measurable(self, key: Key, readings: np.ndarray) -> np.ndarray:
         """Which samples the instrument can read at all (N,) - every one unless it says otherwise."""
@@ -119,6 +176,11 @@ class DeviceModel(ABC):
             return np.zeros((0, len(self.channels(key))))
         side_by_side = poses.transpose(1, 0, 2).reshape(4, 4 * len(poses))
         return np.array(self.geometry(key).map(len(poses))(side_by_side, pd)).T
+
+
+def declared(sigma: float | str) -> float:
+    """A noise field's sigma in internal units; auto is the unit (1 mm, 1 rad) its group's estimated factor multiplies."""
+    return 1.0 if sigma == "auto" else float(sigma)
 
 
 def symbols(parameters: ParameterSet, pd: ca.SX) -> dict[str, ca.SX]:

@@ -16,7 +16,8 @@ from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.devices.sound import ROD_NEAR
 from armcal.kinematics.transforms import xyz_zyx
-from armcal.spec.device import SonicDigitizer
+from armcal.errors import UserError
+from armcal.spec.device import AUTO, SonicDigitizer
 
 PRIMARY = ("A", "B", "C")  # microphones used to triangulate (s_1, s_2, s_3 of 6.1-6.6)
 
@@ -88,8 +89,11 @@ class SonicModel(DeviceModel):
 
         With calibration rods, a compensated range L = f s also carries the rod
         ratio's noise (E.1): sigma_f / f = sqrt(sigma(s_near)^2 + sigma(s_far)^2) / D.
+        With ``noise: auto``, 1 mm: each group's sigma is estimated from the data.
         """
         noise = self.spec.noise
+        if noise == AUTO:
+            return np.ones(np.shape(ranges))
         sigma = (noise.a * ranges + noise.b) / np.sqrt(self.averaging)
         if self.spec.calibration_rods:
             rod = self.spec.calibration_rods[0].length
@@ -98,11 +102,22 @@ class SonicModel(DeviceModel):
             sigma = np.hypot(sigma, relative * ranges)
         return sigma
 
-    def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
+    def noise_sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
         readings = np.atleast_2d(readings)
         if self.mode == "ranges":
             return self.range_sigma(readings)
         return self._point_sigma(readings)
+
+    def noise_kind(self, field: str) -> str:
+        return "range" if self.mode == "ranges" else "point"
+
+    def noise_keys(self, key: Key, channel: str) -> dict[str, str]:
+        keys = {"target": key[0]}
+        if self.mode == "ranges":
+            keys["microphone"] = channel.removeprefix("s_")
+        elif "microphone" in self.spec.noise_groups:
+            raise UserError("noise_groups: microphone needs the slant ranges; these data hold triangulated points")
+        return keys
 
     def _point_sigma(self, points: np.ndarray) -> np.ndarray:
         """Per-coordinate sigma of triangulated points, propagating the range noise (correlations dropped)."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from armcal.devices.base import Channel, DeviceModel, Key, transform_point
+from armcal.devices.base import Channel, DeviceModel, Key, declared, transform_point
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, pose_entries
 from armcal.spec.device import Theodolite
@@ -66,8 +66,17 @@ class TheodoliteModel(DeviceModel):
         local = transform_point(_inverse(pose_from_symbols(sym, f"station.{station}")), world)
         return ca.vertcat(ca.atan2(local[1], local[0]), ca.atan2(local[2], ca.sqrt(local[0] ** 2 + local[1] ** 2)))
 
-    def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
+    def noise_sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
         shape = np.shape(np.atleast_2d(readings))
         if key == BAR_LENGTH:
             return np.full(shape, self.spec.scale_bar.noise)
-        return np.full(shape, self.spec.noise)
+        return np.full(shape, declared(self.spec.noise))
+
+    def noise_field(self, key: Key, channel: str) -> str | None:
+        return None if key == BAR_LENGTH else "noise"  # the bar's length is its certificate's, not a reading
+
+    def noise_kind(self, field: str) -> str:
+        return "angle"
+
+    def noise_keys(self, key: Key, channel: str) -> dict[str, str]:
+        return {"station": key[0], "target": key[1]}

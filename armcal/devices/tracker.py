@@ -10,7 +10,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from armcal.devices.base import Channel, DeviceModel, Key
+from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.spec.device import Tracker
@@ -49,9 +49,15 @@ class TrackerModel(DeviceModel):
             readings += list(intrinsic_xyz(seen[:3, :3]))
         return ca.vertcat(*readings)
 
-    def sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
+    def noise_sigma(self, key: Key, readings: np.ndarray) -> np.ndarray:
         readings = np.atleast_2d(readings)
-        sigma = np.full(readings.shape, self.spec.noise)
+        sigma = np.full(readings.shape, declared(self.spec.noise))
         if self.spec.orientation:
-            sigma[:, 3:] = self.spec.orientation_noise
+            sigma[:, 3:] = declared(self.spec.orientation_noise)
         return sigma
+
+    def noise_field(self, key: Key, channel: str) -> str:
+        return "orientation_noise" if channel in ("rx", "ry", "rz") else "noise"
+
+    def noise_kind(self, field: str) -> str:
+        return "orientation" if field == "orientation_noise" else "position"

@@ -10,10 +10,10 @@ A round ranks the candidates significant after Holm's correction by strength (th
 -log p-value of their score statistic, which compares statistics of different
 degrees of freedom) and tries them in that order, at most MAX_TRIALS, until one
 holds out: its held-out error must fall by more than its own sampling noise. The
-held-out errors are those of the validation set (``diagnose.holdout: validation``,
-the default; its figures are then no longer independent) or of k-fold cross-validation
-over the calibration poses (``holdout: kfold``, and whenever there are no validation
-data: the validation set stays untouched until the final figures); the test is one-sided and paired over poses: the
+held-out errors are those of k-fold cross-validation over the calibration poses
+(``diagnose.holdout: kfold``, the default: the validation set stays untouched until
+the final figures) or of the validation set (``holdout: validation``, whose figures
+are then no longer independent); the test is one-sided and paired over poses: the
 mean change of a pose's squared weighted error must be below -HOLDS_OUT standard
 errors. The loop ends when nothing is significant, nothing holds out, or the round
 limit is reached. An accepted effect whose refit still fails the noise check while a
@@ -89,16 +89,24 @@ class _Context:
             problem = build_problem(kinematics, device, validation, effects)
             self.validation = held_out(problem, kinematics, validation, instrument_moved)
         self.judge = "validation" if settings.holdout == "validation" and self.validation is not None else "kfold"
-        self.pose = np.unique(np.round(np.nan_to_num(calibration.q), 9), axis=0, return_inverse=True)[1].ravel()
+        poses, self.pose = np.unique(np.round(np.nan_to_num(calibration.q), 9), axis=0, return_inverse=True)
+        self.pose = self.pose.ravel()
+        folds = settings.folds
+        self.folds = {None: np.arange(len(poses)) % folds}  # interleaved; per joint: contiguous ranges of its angle
+        for joint in range(kinematics.dof):
+            self.folds[joint + 1] = np.argsort(np.argsort(poses[:, joint], kind="stable")) * folds // len(poses)
 
-    def held_out_errors(self, problem: Problem, theta: np.ndarray, free: set[str], identifiability: Identifiability) -> np.ndarray:
+    def held_out_errors(
+        self, problem: Problem, theta: np.ndarray, free: set[str], identifiability: Identifiability, along: int | None = None
+    ) -> np.ndarray:
         """Each held-out pose's sum of squared weighted residuals: of the validation set's samples, or of the
-        calibration poses, each predicted by a fit (on the full fit's base set) of the folds without it."""
+        calibration poses, each predicted by a fit (on the full fit's base set) of the folds without it. ``along``
+        a joint, each fold is a contiguous range of that joint's values (folds_along)."""
         if self.judge == "validation":
             r, _ = self.validation.evaluate(theta)
             return np.bincount(self.validation.residuals.sample[self.validation.residuals.sample >= 0], r[self.validation.residuals.sample >= 0] ** 2)
         folds = self.settings.folds
-        fold = self.pose % folds
+        fold = self.folds[along][self.pose]
         errors = np.zeros(self.pose.max() + 1)
         for k in range(folds):
             rows = np.flatnonzero(fold == k)
@@ -112,6 +120,16 @@ class _Context:
     def _problem(self, data: Measurements, like: Problem, free: set[str]) -> Problem:
         problem = build_problem(self.kinematics, self.device, data, self.effects)
         return with_free(replace(problem, parameters=like.parameters), free) if free else replace(problem, parameters=like.parameters)
+
+
+def folds_along(effect: EffectSpec) -> int | None:
+    """The joint whose angle a joint-side effect follows (a coupling: the driving joint), None for the others.
+    Cross-validated along it, each fold holds out a contiguous range of that angle, so an effect must predict
+    beyond the range it was fitted on, as a calibration is used: a function of one joint fitted over part of
+    its period (a harmonic of order 3 over 96 deg of the UR10's shoulder) then fails, a physical one holds."""
+    if effect.type == "joint_coupling":
+        return effect.source_joint
+    return effect.joint if effect.joint is not None else None
 
 
 def holds_out(before: np.ndarray, after: np.ndarray) -> tuple[bool, float]:
@@ -168,14 +186,17 @@ def run_diagnosis(
             rounds.append(Round(tests, None, result.theta, result.theta, "no candidate is significant"))
             break
         _mark_partly_explained(rounds, significant, result)
-        before = context.held_out_errors(problem, result.theta, set(), result.identifiability)
+        before: dict[int | None, np.ndarray] = {}
         accepted, tried = None, []
         for test in significant[:MAX_TRIALS]:
             names = [p.name for p in test.effect.parameters()]
             trial_problem = with_free(problem, set(names))
             trial_base = extend(result.identifiability, J_design, problem.parameters, names)
             trial = fit(trial_problem, fit_settings, start=result.theta, identifiability=trial_base)
-            ok, z = holds_out(before, context.held_out_errors(trial_problem, trial.theta, set(names), trial_base))
+            along = folds_along(test.effect)
+            if along not in before:
+                before[along] = context.held_out_errors(problem, result.theta, set(), result.identifiability, along)
+            ok, z = holds_out(before[along], context.held_out_errors(trial_problem, trial.theta, set(names), trial_base, along))
             tried.append(f"{test.effect.id} (held-out change {z:+.1f} standard errors)")
             if ok:
                 accepted = (test, trial_problem, trial)

@@ -1,8 +1,21 @@
-"""The identification stage of a run: fit (with the declared effects), then diagnose what is missing."""
+"""The identification stage of a run: the noise from the data where the spec asks, fit (with the declared
+effects), then diagnose what is missing.
+
+Where a noise is ``auto`` or ``estimate_noise`` is true, the variance components
+are estimated on the calibration data with the declared effects (identify/variance.py)
+and the instrument's sigmas are replaced by the estimates for the rest of the run:
+every problem built later (the diagnosis' refits and k-fold folds, the validation
+data) is weighted by them. When the diagnosis adds effects, the estimation is
+repeated with the final model from its fit, and that fit is the result: the
+reported sigmas, the covariance and the noise check all belong to the final model
+(the rounds were judged with the first estimates). With estimated sigmas the noise
+check holds by construction; the result is ``unexplained`` where the estimates
+reject a declared sigma as too small (or readings not estimated fail the check).
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -12,10 +25,13 @@ from armcal.diagnose.loop import Diagnosis, run_diagnosis
 from armcal.effects.library import from_spec
 from armcal.errors import UserError
 from armcal.effects.model import EffectSet
+from armcal.identify.fit import design_identifiability, fit
 from armcal.identify.methods import Identified, identify_parameters
 from armcal.identify.problem import Problem, build_problem
 from armcal.identify.heldout import held_out
 from armcal.identify.start import starting_values
+from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
+from armcal.identify.variance import NoiseEstimates, estimate_noise, provisional_scale, readings_groups, rescaled, unit_scale, wants_estimation
 from armcal.kinematics.compiler import KinematicModel
 from armcal.spec.model import Spec
 
@@ -27,6 +43,7 @@ class Calibration:
     identified: Identified
     diagnosis: Diagnosis | None  # None when the spec turns it off or uses Stone's feature method
     start: np.ndarray  # the nominal model, with a free instrument-to-base transform registered: "before"
+    noise: NoiseEstimates | None = None  # the noise estimated from the data, where the spec asks for it
 
 
 def calibration_problem(spec: Spec, kinematics: KinematicModel, device: DeviceModel, calibration: Measurements) -> tuple[Problem, np.ndarray]:
@@ -58,16 +75,50 @@ def identify_and_diagnose(
     declared = [from_spec(e) for e in spec.effects]
     settings = spec.diagnose
     effects = EffectSet(tuple(declared))
+    noise = None
+    if wants_estimation(device):
+        noise, device = noise_from_data(spec, kinematics, device, calibration)
     problem, start = calibration_problem(spec, kinematics, device, calibration)
     if settings.enabled and settings.max_rounds > 0 and spec.fit.method == "least_squares":
         moved = spec.data is not None and spec.data.instrument_moved
         diagnosis = run_diagnosis(kinematics, device, calibration, validation, declared, spec.fit, settings, start, moved)
+        if noise is not None:
+            diagnosis, noise = _final_noise(diagnosis, device, spec, noise)
         result = diagnosis.fit
         padded = diagnosis.problem.parameters.nominal.copy()
         padded[: len(start)] = start
-        return Calibration(diagnosis.problem, diagnosis.validation, Identified(result.theta, result.std, result), diagnosis, padded)
+        return Calibration(diagnosis.problem, diagnosis.validation, Identified(result.theta, result.std, result), diagnosis, padded, noise)
     validation_problem = None
     if validation is not None:
         moved = spec.data is not None and spec.data.instrument_moved
         validation_problem = held_out(build_problem(kinematics, device, validation, effects), kinematics, validation, moved)
-    return Calibration(problem, validation_problem, identify_parameters(spec, problem, raw, start), None, start)
+    return Calibration(problem, validation_problem, identify_parameters(spec, problem, raw, start), None, start, noise)
+
+
+def noise_from_data(spec: Spec, kinematics: KinematicModel, device: DeviceModel, calibration: Measurements) -> tuple[NoiseEstimates, DeviceModel]:
+    """The noise groups the spec asks for, estimated on the calibration data with the declared effects, and the
+    instrument weighted by them for the rest of the run."""
+    unit = unit_scale(device, calibration.groups())
+    problem, start = calibration_problem(spec, kinematics, unit, calibration)
+    first = provisional_scale(unit, problem, start)
+    provisional = device.with_noise_scale({**unit.noise_scale, **first})
+    problem = rescaled(problem, readings_groups(unit, problem), unit.noise_scale, provisional.noise_scale)
+    estimates, _ = estimate_noise(provisional, problem, spec.fit, start, design_identifiability(problem, start))
+    return estimates, device.with_noise_scale({**unit.noise_scale, **estimates.scale})
+
+
+def _final_noise(diagnosis: Diagnosis, device: DeviceModel, spec: Spec, noise: NoiseEstimates) -> tuple[Diagnosis, NoiseEstimates]:
+    """The noise re-estimated with the effects the diagnosis added, the final fit weighted by it, and whether the
+    result is unexplained: the readings not estimated fail the noise check, or the data reject a declared sigma as too small."""
+    if diagnosis.added:
+        problem, base = diagnosis.problem, diagnosis.fit.identifiability
+        noise, last = estimate_noise(device, problem, spec.fit, diagnosis.fit.theta, base)
+        scale = {**device.noise_scale, **noise.scale}
+        problem = rescaled(problem, readings_groups(device, problem), device.noise_scale, scale)
+        validation = diagnosis.validation
+        if validation is not None:
+            validation = rescaled(validation, readings_groups(device, validation), device.noise_scale, scale)
+        diagnosis = replace(diagnosis, problem=problem, validation=validation, fit=fit(problem, spec.fit, start=last.theta, identifiability=base))
+    too_small = any(g.test is not None and g.test.verdict == "declared_too_small" for g in noise.groups)
+    unexplained = diagnosis.fit.uncertainty.p_value < NOISE_CHECK_LEVEL or too_small
+    return replace(diagnosis, unexplained=unexplained), noise

@@ -3,9 +3,24 @@
 Per sample the model takes extras x = [dir_1..dir_n, t, temperature] besides
 the joint readings q. Joint-side effects add to the joint value the chain sees:
 encoder scale s q, gear harmonic A sin(h r q) + B cos(h r q) (Whitney &
-Lozinski's transmission error), backlash w dir, compliance c tau_g(q) with tau_g
-the gravity torque about the joint from lumped link masses. Thermal drift scales
-every length of the robot by 1 + k (T - T_ref) (or 1 + k t). Instrument-side:
+Lozinski's transmission error), backlash w dir, coupling c q_from (joint ``from``
+drives this one too), and compliance: c tau_g(q) with tau_g the gravity torque
+about the joint from lumped link masses (form masses), or the elastostatic form
+linear in the links' unknown first mass moments (form moments),
+
+    Delta_j = sum_{k=j..n} P_k . R_k^T (g_hat x z_(j-1))        P_k = c_j |g| M'_k
+
+with R_k the rotation of frame F_k, z_(j-1) joint j's axis, g_hat the unit gravity
+and M'_k link k's first mass moment regrouped with the masses beyond it (so no
+mass appears on its own); a prismatic joint: Delta_j = w (z_(j-1) . g_hat).
+Bending of joint j tilts everything beyond it about o_(j-1), by the rotation vector
+
+    phi_j = (I - z z^T) sum_{k=j..n} (R_k B_k) x g_hat        B_k = b_j |g| M'_k
+
+(the weight's moment about o_(j-1) without its part along the axis, times one
+bending compliance b_j of the bearing, the same about every axis square to it),
+applied to the target's pose; bends of several joints compose outermost first.
+Thermal drift scales every length of the robot by 1 + k (T - T_ref) (or 1 + k t). Instrument-side:
 a scale on length readings, a bias on one microphone's range, an offset of the
 ball-bar's length, a displacement of one pivot.
 """
@@ -18,7 +33,7 @@ import casadi as ca
 import numpy as np
 
 from armcal.devices.base import DeviceModel, Key, symbols
-from armcal.effects.library import EffectSpec, LumpedMass
+from armcal.effects.library import AXIS_WEIGHT, EffectSpec, LumpedMass, moment_link
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
 
@@ -41,11 +56,74 @@ def extras_matrix(extras: dict, count: int, dof: int, reference_temperature: flo
     return np.nan_to_num(out)
 
 
-def _gravity_torque(frames: ca.SX, joint: int, masses, dof: int) -> ca.SX:
+def _unit_gravity():
+    return np.array(GRAVITY) / np.linalg.norm(GRAVITY)
+
+
+def moment_regressor(frames: ca.SX, joint: int, term: str):
+    """The deflection of joint ``joint`` per unit of one mass-moment product (form moments), from the frames
+    F_0..F_n at the readings: (R_k^T (g_hat x z))_c for m<c><k>, z . g_hat for a prismatic joint's w."""
+    g = ca.DM(_unit_gravity())
+    axis = frames[:3, 4 * (joint - 1) + 2]
+    if term == AXIS_WEIGHT:
+        return ca.dot(axis, g)
+    link, c = moment_link(term)
+    return ca.dot(frames[:3, 4 * link + c], ca.cross(g, axis))
+
+
+def moment_regressors(frames: np.ndarray, joint: int, terms) -> np.ndarray:
+    """Numeric moment_regressor of every term at N configurations: frames (N, n+1, 4, 4) -> (N, len(terms))."""
+    g = _unit_gravity()
+    axis = frames[:, joint - 1, :3, 2]
+    lever = np.cross(g, axis)
+    columns = []
+    for term in terms:
+        if term == AXIS_WEIGHT:
+            columns.append(axis @ g)
+        else:
+            link, c = moment_link(term)
+            columns.append(np.einsum("ni,ni->n", frames[:, link, :3, c], lever))
+    return np.column_stack(columns) if columns else np.zeros((len(frames), 0))
+
+
+def bending_regressor(frames: ca.SX, joint: int, term: str):
+    """The tilt (rotation vector, base frame) of the links beyond joint ``joint`` per unit of one product m<c><k>:
+    (I - z z^T) ((R_k e_c) x g_hat), z joint j's axis."""
+    g = ca.DM(_unit_gravity())
+    axis = frames[:3, 4 * (joint - 1) + 2]
+    link, c = moment_link(term)
+    moment = ca.cross(frames[:3, 4 * link + c], g)
+    return moment - axis * ca.dot(axis, moment)
+
+
+def bending_regressors(frames: np.ndarray, joint: int, terms) -> np.ndarray:
+    """Numeric bending_regressor of every term at N configurations: frames (N, n+1, 4, 4) -> (N, 3, len(terms))."""
+    g = _unit_gravity()
+    axis = frames[:, joint - 1, :3, 2]
+    columns = []
+    for term in terms:
+        link, c = moment_link(term)
+        moment = np.cross(frames[:, link, :3, c], g)
+        columns.append(moment - axis * np.einsum("ni,ni->n", axis, moment)[:, None])
+    return np.stack(columns, axis=-1) if columns else np.zeros((len(frames), 3, 0))
+
+
+def _small_rotation(phi):
+    """Rot(phi) to second order, I + [phi] + [phi]^2 / 2: orthonormal to |phi|^3 (milliradians at most)."""
+    K = ca.vertcat(ca.horzcat(0, -phi[2], phi[1]), ca.horzcat(phi[2], 0, -phi[0]), ca.horzcat(-phi[1], phi[0], 0))
+    return ca.SX.eye(3) + K + ca.mtimes(K, K) / 2
+
+
+def torque_masses(kinematics: KinematicModel, own: tuple[LumpedMass, ...] = ()) -> tuple[LumpedMass, ...]:
+    """The masses of a gravity torque: an effect's own, else the robot's declared layout, else the assumed default
+    (DEFAULT_LINK_MASS at each link frame's origin)."""
+    return own or kinematics.masses or tuple(LumpedMass(k, DEFAULT_LINK_MASS, (0.0, 0.0, 0.0)) for k in range(1, kinematics.dof + 1))
+
+
+def _gravity_torque(frames: ca.SX, joint: int, masses: tuple[LumpedMass, ...]) -> ca.SX:
     """Gravity torque (N m) about joint ``joint`` (z of F_{joint-1}) from the masses on links joint..n."""
     frame = lambda k: frames[:, 4 * k : 4 * k + 4]  # noqa: E731
     axis, origin = frame(joint - 1)[:3, 2], frame(joint - 1)[:3, 3]
-    masses = masses or [LumpedMass(k, DEFAULT_LINK_MASS, (0.0, 0.0, 0.0)) for k in range(joint, dof + 1)]
     torque = 0
     for mass in masses:
         if mass.link < joint:
@@ -86,10 +164,29 @@ class EffectSet:
                 delta[j] += value("sin") * ca.sin(phase) + value("cos") * ca.cos(phase)
             elif e.type == "backlash":
                 delta[j] += value("half_width") * x[j]
+            elif e.type == "joint_coupling":
+                delta[j] += value("coefficient") * q[e.source_joint - 1]
             elif e.type == "joint_compliance":
                 frames = kinematics.frames(q, p) if frames is None else frames
-                delta[j] += value("compliance") * _gravity_torque(frames, e.joint, e.masses, n)
+                if e.form == "moments":
+                    delta[j] += sum(value(t) * moment_regressor(frames, e.joint, t) for t in e.terms)
+                else:
+                    delta[j] += value("compliance") * _gravity_torque(frames, e.joint, torque_masses(kinematics, e.masses))
         return q + ca.vertcat(*delta)
+
+    def bent(self, kinematics: KinematicModel, link: int, qv, pv, pose, v: dict):
+        """``pose`` (a frame on ``link``) tilted by the bending of every joint up to ``link``, outermost first, so that
+        each tilt is about its joint in the chain the inner ones then carry: F_(j-1) B_j F_(j-1)^-1 (...) pose."""
+        bends = sorted((e for e in self.effects if e.type == "joint_bending" and e.joint <= link), key=lambda e: -e.joint)
+        if not bends:
+            return pose
+        frames = kinematics.frames(qv, pv)
+        for e in bends:
+            phi = sum(v[f"{e.id}.{t}"] * bending_regressor(frames, e.joint, t) for t in e.terms)
+            R, pivot = _small_rotation(phi), frames[:3, 4 * (e.joint - 1) + 3]
+            tilt = ca.vertcat(ca.horzcat(R, pivot - ca.mtimes(R, pivot)), ca.DM([[0, 0, 0, 1]]))
+            pose = ca.mtimes(tilt, pose)
+        return pose
 
     def length_factor(self, x, v: dict, dof: int):
         """1 + thermal drift of the robot's lengths."""
@@ -138,12 +235,14 @@ class EffectSet:
         if target is None:
             pose = ca.SX.eye(4)
         else:
-            pose = kinematics.targets[target](self.joint_values(kinematics, q, x, p, v), self.robot_parameters(kinematics, x, p, v))
+            qv, pv = self.joint_values(kinematics, q, x, p, v), self.robot_parameters(kinematics, x, p, v)
+            pose = self.bent(kinematics, kinematics.target_links[target], qv, pv, kinematics.targets[target](qv, pv), v)
         y = device.geometry(key)(pose, self.device_parameters(device, pd, v))
         return ca.Function("h", [q, x, p, pd, pe], [self.readings(device, key, y, v)], ["q", "x", "p", "pd", "pe"], ["y"])
 
     def joint_deviation_function(self, kinematics: KinematicModel) -> ca.Function:
-        """(q, x, p, pe) -> joint deviations and the thermal length factor, for the simulator."""
+        """(q, x, p, pe) -> joint deviations and the thermal length factor, for the simulator (a bending is no
+        joint deviation: the spec refuses one under simulate.effects)."""
         n = kinematics.dof
         q, x = ca.SX.sym("q", n), ca.SX.sym("x", extras_size(n))
         p, pe = ca.SX.sym("p", len(kinematics.parameters)), ca.SX.sym("pe", len(self.parameters))
@@ -169,8 +268,8 @@ class EffectSet:
 
 
 def gravity_torque_function(kinematics: KinematicModel) -> ca.Function:
-    """(q, p) -> gravity torque (N m) about every joint from the default lumped masses, for the evidence plots."""
+    """(q, p) -> gravity torque (N m) about every joint from the robot's masses (``torque_masses``), for the evidence plots."""
     q, p = ca.SX.sym("q", kinematics.dof), ca.SX.sym("p", len(kinematics.parameters))
     frames = kinematics.frames(q, p)
-    torques = [_gravity_torque(frames, j, (), kinematics.dof) for j in range(1, kinematics.dof + 1)]
+    torques = [_gravity_torque(frames, j, torque_masses(kinematics)) for j in range(1, kinematics.dof + 1)]
     return ca.Function("gravity_torque", [q, p], [ca.vertcat(*torques)])

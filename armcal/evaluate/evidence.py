@@ -71,7 +71,8 @@ def evidence(loaded, kinematics, calibration, data) -> dict:
         "joints": [{"joint": j + 1, **_binned(q[:, j] / factor(joint_kind(kind), spec.robot.units.of(joint_kind(kind))), series)}
                    for j, kind in enumerate(kinematics.joint_types)],
         "joint_axes": [_joint_axis(kind, spec) for kind in kinematics.joint_types],
-        "torque_masses": f"{DEFAULT_LINK_MASS:g} kg at each link frame's origin beyond the joint (assumed: the spec declares no masses)",
+        "torque_masses": "the robot's declared masses (robot.masses)" if kinematics.masses else
+        f"{DEFAULT_LINK_MASS:g} kg at each link frame's origin beyond the joint (assumed: the spec declares no masses)",
         "gravity_torque": [
             {"joint": j + 1, **_binned(torque[:, j], series)}
             for j in range(kinematics.dof)

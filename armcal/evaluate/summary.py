@@ -19,7 +19,8 @@ from armcal.units import from_internal
 
 
 CHOSEN_ON = {
-    "kfold": "the calibration data, by {folds}-fold cross-validation over its poses (the validation data did not choose)",
+    "kfold": "the calibration data, by {folds}-fold cross-validation over its poses, a joint's effect over contiguous ranges of "
+    "that joint's angle (the validation data did not choose)",
     "validation": "the validation data (diagnose.holdout: validation): its figures are not independent of that choice",
 }
 
@@ -77,7 +78,7 @@ def summarize(
             "validation": improvement(validation_pair) if validation_pair else None,
         },
         diagnosis={
-            **(diagnosis_block(loaded, calibration) if calibration.diagnosis else {"rounds": [], "added_effects": [], "unexplained": bool(uncertainty.scaled)}),
+            **(diagnosis_block(loaded, calibration) if calibration.diagnosis else {"rounds": [], "added_effects": [], "unexplained": _unexplained(calibration, uncertainty)}),
             "evidence": evidence,
             "plots": plots,
         },
@@ -91,10 +92,44 @@ def summarize(
             "loss": spec.fit.loss,
             "outliers": sorted(int(r) for r in set(np.asarray(outliers).tolist())),
         },
+        noise=noise_block(loaded, calibration.noise) if calibration.noise else None,
         noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled, "verdict": uncertainty.verdict},
         correlations=[list(c) for c in uncertainty.correlations],
         campaign=measured,
     )
+
+
+def _unexplained(calibration: Calibration, uncertainty) -> bool:
+    """No diagnosis ran: the residuals exceed the noise model, or (noise estimated) the data reject a declared sigma as
+    too small."""
+    too_small = calibration.noise is not None and any(g.test.verdict == "declared_too_small" for g in calibration.noise.rejected)
+    return bool(uncertainty.scaled) or too_small
+
+
+def noise_block(loaded: LoadedSpec, noise) -> dict:
+    """results.json's noise: each estimated group's sigma in the spec's unit, its uncertainty, and its test."""
+    units = loaded.spec.robot.units
+    shown = lambda value, kind: from_internal(value, kind, units.of(kind))  # noqa: E731
+    return {
+        "method": noise.method,
+        "rounds": noise.rounds,
+        "converged": noise.converged,
+        "groups": [
+            {
+                "group": g.group,
+                "field": g.field,
+                "unit": units.of(g.kind),
+                "readings": g.readings,
+                "redundancy": g.redundancy,
+                "sigma": shown(g.sigma, g.kind),
+                "std": shown(g.std, g.kind),
+                "interval": [shown(v, g.kind) for v in g.interval],
+                "declared": None if g.declared is None else shown(g.declared, g.kind),
+                "test": None if g.test is None else {"statistic": g.test.statistic, "dof": g.test.dof, "p_value": g.test.p_value, "verdict": g.test.verdict},
+            }
+            for g in noise.groups
+        ],
+    }
 
 
 def _distances(problem, validation, start: np.ndarray, theta: np.ndarray) -> dict | None:

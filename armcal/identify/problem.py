@@ -11,6 +11,7 @@ call, not constants of a graph, and the weighting is done in numpy on its output
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, replace
 
 import casadi as ca
@@ -90,6 +91,12 @@ class KeyBlock:
             r_parts.append(difference * c.weight)
             J_parts.append(jacobian[c.channel].reshape(self._count, self._n)[c.rows] * c.weight[:, None])
         return np.concatenate(r_parts), np.concatenate(J_parts)
+
+    def with_weights(self, weights: list[np.ndarray]) -> "KeyBlock":
+        """The same block (the same compiled call) with new weights 1 / sigma, one array per channel."""
+        block = copy.copy(self)
+        block.channels = [replace(c, weight=np.asarray(w, dtype=float)) for c, w in zip(self.channels, weights)]
+        return block
 
 
 class BufferedCall:
@@ -190,6 +197,24 @@ def build_problem(
         measured=np.concatenate(measured),
     )
     return Problem(parameters, sizes[0], tuple(blocks), residual)
+
+
+def reweighted(problem: Problem, sigma: np.ndarray) -> Problem:
+    """The same problem with new sigmas (M,) in the order of its residuals (e.g. noise estimated from the data).
+
+    Nothing is rebuilt: each block keeps its compiled call and takes the new weights 1 / sigma.
+    """
+    sigma = np.asarray(sigma, dtype=float)
+    if sigma.shape != problem.residuals.sigma.shape:
+        raise ValueError(f"{len(problem.residuals.sigma)} sigmas needed, got {sigma.shape}")
+    blocks, start = [], 0
+    for block in problem.blocks:
+        weights = []
+        for c in block.channels:
+            weights.append(1.0 / sigma[start : start + len(c.rows)])
+            start += len(c.rows)
+        blocks.append(block.with_weights(weights))
+    return replace(problem, blocks=tuple(blocks), residuals=replace(problem.residuals, sigma=sigma))
 
 
 def with_values(parameters: ParameterSet, values: np.ndarray) -> ParameterSet:

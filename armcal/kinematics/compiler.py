@@ -13,6 +13,7 @@ import casadi as ca
 import numpy as np
 
 from armcal.kinematics import conventions
+from armcal.kinematics.masses import LumpedMass
 from armcal.kinematics.params import LINK_FIELDS, ParameterSet, parameter_set
 from armcal.kinematics.transforms import compose, trans, xyz_zyx
 from armcal.spec.robot import RobotBase
@@ -33,6 +34,7 @@ class KinematicModel:
     targets: dict[str, ca.Function]  # (q, p) -> 4x4 base-to-target
     target_links: dict[str, int]  # the link each target rides on
     identity: str  # canonical form of the spec robot it was compiled from
+    masses: tuple[LumpedMass, ...] = ()  # the spec's robot.masses: the maker's mass layout, if declared
 
     @property
     def dof(self) -> int:
@@ -105,6 +107,7 @@ def compile_robot(robot: RobotBase) -> KinematicModel:
         targets=targets,
         target_links={name: target.link for name, target in robot.targets.items()},
         identity=robot.model_dump_json(),
+        masses=tuple(LumpedMass(m.link, m.mass, (m.x, m.y, m.z)) for m in robot.masses),
     )
 
 

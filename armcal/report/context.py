@@ -211,6 +211,27 @@ def _parallel_note(axes: dict) -> str:
     return f"axes {i} and {j} parallel" + (": " + ", ".join(done) if done else "")
 
 
+VARIANCE_VERDICTS = {"consistent": "consistent", "declared_too_small": "declared too small", "declared_too_large": "declared too large"}
+
+
+def _estimated_noise(noise: dict | None) -> dict | None:
+    """The noise estimated from the data: per group sigma +- u, its 95 % interval, and the test against the declared."""
+    if not noise:
+        return None
+    rows = []
+    for g in noise["groups"]:
+        test = g["test"]
+        rows.append({
+            "group": g["group"],
+            "sigma": f"{number(g['sigma'], 4)} +- {number(g['std'], 4)} {g['unit']}",
+            "interval": f"{number(g['interval'][0], 4)} - {number(g['interval'][1], 4)} {g['unit']}",
+            "readings": str(g["readings"]),
+            "declared": f"{number(g['declared'], 4)} {g['unit']}" if g["declared"] is not None else "auto (none declared)",
+            "test": f"{VARIANCE_VERDICTS[test['verdict']]} (p = {test['p_value']:.2g})" if test else "-",
+        })
+    return {"method": noise["method"], "rounds": str(noise["rounds"]), "converged": noise["converged"], "rows": rows}
+
+
 def certificate_context(results: dict, plots: dict[str, str]) -> dict:
     """Every value the template shows, as text; ``plots`` (name -> SVG) as data URIs."""
     report, spec, robot, campaign = results["report"], results["spec"], results["robot"], results["campaign"]
@@ -266,5 +287,6 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
             "chi2": f"{noise['chi2']:.1f} on {noise['dof']} degrees of freedom (p = {noise['p_value']:.3g})",
             "scaled": noise["covariance_scaled"],
         },
+        "estimated_noise": _estimated_noise(results.get("noise")),
         "version": results["armcal_version"],
     }

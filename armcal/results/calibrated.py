@@ -95,9 +95,11 @@ def calibrated_yaml(
     out_dir: Path,
     note: str,
     added_effects: list = (),
+    noise: dict[str, tuple[float, str]] | None = None,
 ) -> str:
-    """The spec text with ``identified`` {name: (internal value, kind, held)} written in, and the effects
-    the diagnosis added [(EffectSpec, {field: (internal value, kind)})] appended to ``effects:``."""
+    """The spec text with ``identified`` {name: (internal value, kind, held)} written in, the effects
+    the diagnosis added [(EffectSpec, {field: (internal value, kind)})] appended to ``effects:``, and the noise
+    estimated from the data {device field: (internal sigma, kind)} written as the device's sigmas (no longer estimated)."""
     yaml = YAML(typ="rt")
     yaml.preserve_quotes = True
     yaml.width = 4096  # keep flow-style rows on one line as the user wrote them
@@ -109,6 +111,12 @@ def calibrated_yaml(
         effects = root.setdefault("effects", CommentedSeq())
         for effect, values in added_effects:
             effects.append(to_spec_dict(effect, {field: shown(v, kind) for field, (v, kind) in values.items()}))
+    if noise:
+        device = root["device"]
+        for field, (sigma, kind) in noise.items():
+            device[field] = shown(sigma, kind)
+        for key in ("estimate_noise", "noise_groups"):
+            device.pop(key, None)
     if spec.data is not None and "data" in root:
         for key in ("calibration", "validation"):
             if root["data"].get(key):
@@ -137,9 +145,11 @@ def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
             identified[entry.name] = (float(value), entry.kind, redundant)
         held += [entry.name] if redundant else []
     new_effects = [(e, {p.name.rsplit(".", 1)[1]: (float(theta[index(p.name)]), p.kind) for p in e.parameters()}) for e in added]
+    noise = calibrated.noise.spec_values() if calibrated.noise else None
     note = (
         f"Calibrated by armcal {__version__} on {results.created} from {loaded.path.name} "
         f"(sha256 {loaded.sha256[:12]}), run {results.run_id}, status {results.status}."
         + (f"\nHeld (vary: false) as the fit held them, not identifiable at the design point: {', '.join(held)}." if held else "")
+        + (f"\nThe device's {', '.join(noise)} estimated from the calibration data (results.json: noise)." if noise else "")
     )
-    return calibrated_yaml(loaded.text, loaded.spec, identified, loaded.path, out_dir, note, new_effects)
+    return calibrated_yaml(loaded.text, loaded.spec, identified, loaded.path, out_dir, note, new_effects, noise)

@@ -17,6 +17,7 @@ import numpy as np
 
 from armcal.dataio.measurements import Measurements
 from armcal.errors import UserError
+from armcal.spec.device import AUTO
 from armcal.devices import device_model
 from armcal.devices.base import DeviceModel
 from armcal.devices.sonic import SonicModel
@@ -57,6 +58,12 @@ class CampaignSimulator:
         self.spec = spec
         self.settings = spec.simulate or fx.Simulate()
         self.kinematics = compile_robot(spec.robot)
+        auto = [f for f in spec.device.noise_fields() if getattr(spec.device, f) == AUTO]
+        if auto and self.settings.noise:
+            raise UserError(
+                f"{spec.device.type}: device.{auto[0]} is auto, but the simulator adds the declared noise: give it a sigma "
+                "to simulate with (a run estimates it from the data with estimate_noise: true), or set simulate.noise: false"
+            )
         self.device = device_model(spec)
         procedures = (("calibration", spec.procedure), ("validation", spec.validation if validation else None))
         self.plans = {name: self._plan(name, procedure, spec_dir) for name, procedure in procedures}

@@ -12,7 +12,7 @@ from armcal.spec.device import BallBar, SonicDigitizer, Theodolite, Tracker
 from armcal.spec.model import Spec
 from armcal.spec.procedure import CirclePoint, Poses, Shells
 from armcal.spec.robot import SixParameterRobot
-from armcal.spec.sections import PivotOffset, RangeBias
+from armcal.spec.sections import JointBending, JointCompliance, JointCoupling, PivotOffset, RangeBias
 
 Loc = tuple[str | int, ...]
 DEVICES_OF_EFFECT = {  # instrument-side effects and the devices they act on
@@ -43,11 +43,18 @@ def _robot(spec: Spec) -> Iterator[Problem]:
                 ("robot", "targets", name, "link"),
                 f"link {target.link} does not exist: this robot has links 0..{robot.dof}",
             )
+    yield from _mass_links(robot.masses, ("robot", "masses"), robot.dof)
     if isinstance(robot, SixParameterRobot) and len(robot.links) != robot.dof + 1:
         yield (
             ("robot", "links"),
             f"a six_parameter robot with {robot.dof} joints needs {robot.dof + 1} links, got {len(robot.links)}",
         )
+
+
+def _mass_links(masses: list, loc: Loc, dof: int) -> Iterator[Problem]:
+    for i, mass in enumerate(masses):
+        if mass.link > dof:
+            yield (*loc, i, "link"), f"link {mass.link} does not exist: masses ride on links 1..{dof}"
 
 
 def _target_refs(spec: Spec, names: list[str], loc: Loc, what: str) -> Iterator[Problem]:
@@ -147,7 +154,7 @@ def _effects(spec: Spec) -> Iterator[Problem]:
         effects = spec.effects if loc == ("effects",) else spec.simulate.effects  # type: ignore[union-attr]
         seen: dict[tuple, int] = {}
         for i, effect in enumerate(effects):
-            what = tuple(getattr(effect, f, None) for f in ("type", "joint", "order", "ratio", "microphone", "pivot"))
+            what = tuple(getattr(effect, f, None) for f in ("type", "joint", "from_joint", "order", "ratio", "microphone", "pivot"))
             if what in seen:
                 yield (*loc, i), f"this {effect.type} effect is already declared as entry {seen[what] + 1}"
             seen.setdefault(what, i)
@@ -161,7 +168,56 @@ def _effects(spec: Spec) -> Iterator[Problem]:
                 not isinstance(spec.device, SonicDigitizer) or effect.microphone not in spec.device.microphones
             ):
                 yield (*loc, i, "microphone"), f"microphone '{effect.microphone}' is not in device.microphones"
+            if isinstance(effect, JointCoupling):
+                yield from _coupling(spec, effect, (*loc, i))
+            if isinstance(effect, JointCompliance) and joint is not None and joint <= spec.robot.dof:
+                yield from _compliance(spec, effect, (*loc, i))
+            if isinstance(effect, JointBending) and joint is not None and joint <= spec.robot.dof:
+                yield from _bending(spec, effect, (*loc, i), simulated=loc != ("effects",))
             if isinstance(effect, PivotOffset) and (
                 not isinstance(spec.device, BallBar) or effect.pivot not in spec.device.pivots
             ):
                 yield (*loc, i, "pivot"), f"pivot '{effect.pivot}' is not in device.pivots"
+
+
+def _coupling(spec: Spec, effect: JointCoupling, loc: Loc) -> Iterator[Problem]:
+    if effect.from_joint > spec.robot.dof:
+        yield (*loc, "from"), f"joint {effect.from_joint} does not exist: this robot has joints 1..{spec.robot.dof}"
+    elif effect.from_joint == effect.joint:
+        yield (*loc, "from"), "a joint driving itself is its encoder scale: use encoder_scale"
+
+
+def _compliance(spec: Spec, effect: JointCompliance, loc: Loc) -> Iterator[Problem]:
+    """The keys of each form belong to it; a moments product names a link beyond the joint and an axis."""
+    products = sorted(effect.model_extra or {})
+    revolute = spec.robot.joints[effect.joint - 1].type == "revolute"
+    if effect.form == "masses":
+        yield from _mass_links(effect.masses, (*loc, "masses"), spec.robot.dof)
+        for key in [*products, *(["w"] if effect.w is not None else [])]:
+            yield (*loc, key), f"{key} is a product of the moments form: add form: moments, or give masses and compliance"
+        return
+    for key in ("compliance", "masses"):
+        if key in effect.model_fields_set:
+            yield (*loc, key), f"{key} belongs to form: masses; the moments form identifies the products m<c><k> (or w) instead"
+    if not revolute:
+        for key in products:
+            yield (*loc, key), f"joint {effect.joint} is prismatic: its compliance under gravity has the one product w"
+        return
+    if effect.w is not None:
+        yield (*loc, "w"), f"w is the product of a prismatic joint; joint {effect.joint} is revolute (products m<c><k>)"
+    for key in products:
+        link = int(key[2:])  # m<c><k>: the loader checked the form
+        if not effect.joint <= link <= spec.robot.dof:
+            yield (*loc, key), f"link {link} is not beyond joint {effect.joint}: the products name links {effect.joint}..{spec.robot.dof}"
+
+
+def _bending(spec: Spec, effect: JointBending, loc: Loc, simulated: bool) -> Iterator[Problem]:
+    if simulated:
+        yield (*loc, "type"), "armcal simulate moves the true robot's joints only and cannot bend it: declare joint_bending under effects:"
+    if spec.robot.joints[effect.joint - 1].type != "revolute":
+        yield (*loc, "joint"), f"joint {effect.joint} is prismatic: bending is modelled for revolute joints"
+        return
+    for key in sorted(effect.model_extra or {}):
+        link = int(key[2:])
+        if not effect.joint <= link <= spec.robot.dof:
+            yield (*loc, key), f"link {link} is not beyond joint {effect.joint}: the products name links {effect.joint}..{spec.robot.dof}"

@@ -17,6 +17,7 @@ from pydantic import Field, ValidationInfo, WithJsonSchema, field_validator
 from armcal import units
 from armcal.spec.base import (
     AngleParam,
+    Length,
     LengthParam,
     Parameter,
     ScaleParam,
@@ -76,6 +77,16 @@ class Target(Offset):
     @property
     def is_frame(self) -> bool:
         return any(r is not None for r in (self.rx, self.ry, self.rz))
+
+
+class LinkMass(SpecModel):
+    """A lumped mass on a link for gravity torques: kg and centre of mass in the link frame."""
+
+    link: int = Field(ge=1, description="link carrying the mass")
+    mass: float = Field(gt=0.0, description="kg")
+    x: Length = Field(0.0, description="centre of mass, link frame")
+    y: Length = Field(0.0, description="centre of mass, link frame")
+    z: Length = Field(0.0, description="centre of mass, link frame")
 
 
 class JointBase(SpecModel):
@@ -158,6 +169,12 @@ class RobotBase(SpecModel):
     base: Pose = Field(Pose(), description="robot base frame in the mounting (world) frame; fixed at 0 unless given")
     tool: Pose = Field(Pose(), description="tool frame on the last link; fixed at 0 unless given")
     targets: dict[str, Target] = Field({}, description="named points or frames on links: sparkers, spheres, reflectors")
+    masses: list[LinkMass] = Field(
+        [],
+        description="the robot's mass layout (the maker's data): the gravity torque of compliance where an effect names "
+        "no masses, and the diagnosis' compliance candidates then identify one compliance per joint; without it they "
+        "identify the links' mass moments (form moments)",
+    )
 
     @property
     def dof(self) -> int:

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import difflib
 import math
-from typing import Annotated, Literal, Union
+import re
+from typing import Annotated, Any, Literal, Union
 
-from pydantic import Field
+from pydantic import ConfigDict, Field, ValidationInfo, model_validator
 
-from armcal.spec.base import Angle, AngleParam, Length, LengthParam, Number, Parameter, ScaleParam, SpecModel
-from armcal.spec.robot import Offset
+from armcal.spec.base import Angle, AngleParam, Length, LengthParam, Number, Parameter, ScaleParam, SpecModel, parameter_schema
+from armcal.spec.robot import LinkMass, Offset
 
 DEG = math.pi / 180.0
 
@@ -16,6 +18,8 @@ EFFECT_TYPES = (
     "encoder_scale",
     "gear_harmonic",
     "joint_compliance",
+    "joint_coupling",
+    "joint_bending",
     "backlash",
     "thermal_drift",
     "sensor_scale",
@@ -58,23 +62,89 @@ class GearHarmonic(JointEffect):
     cos: AngleParam = Parameter(value=0.0)
 
 
-class LinkMass(SpecModel):
-    """A lumped mass on a link for gravity torques: kg and centre of mass in the link frame."""
+MOMENT_KEY = re.compile(r"^m[xyz][1-9][0-9]*$")  # form moments: m<c><k>, axis c of frame F_k, link k (effects/library.py)
 
-    link: int = Field(ge=1, description="link carrying the mass")
-    mass: float = Field(gt=0.0, description="kg")
-    x: Length = Field(0.0, description="centre of mass, link frame")
-    y: Length = Field(0.0, description="centre of mass, link frame")
-    z: Length = Field(0.0, description="centre of mass, link frame")
+
+def _moment_products(cls, data: Any, info: ValidationInfo, moments: bool) -> Any:
+    """Refuse unknown keys (only m<c><k> may be extra); where ``moments``, fill in the products left out with 0
+    (free), from the robot's joints in the validation context: m<c><k> for links joint..n, or w (prismatic)."""
+    if not isinstance(data, dict):
+        return data
+    for key in data:
+        if key not in cls.model_fields and not MOMENT_KEY.match(str(key)):
+            close = difflib.get_close_matches(str(key), list(cls.model_fields), n=1, cutoff=0.6)
+            hint = f"did you mean '{close[0]}'?" if close else "allowed: " + ", ".join(cls.model_fields) + " and m<c><k> such as mx3"
+            raise ValueError(f"'{key}' is unknown in a {data.get('type')} effect: remove it or check its spelling ({hint})")
+    kinds = (info.context or {}).get("joint_kinds", [])
+    joint = data.get("joint")
+    if not moments or not isinstance(joint, int) or not 1 <= joint <= len(kinds):
+        return data
+    out = dict(data)
+    if kinds[joint - 1] == "angle":
+        for k in range(joint, len(kinds) + 1):
+            for c in "xyz":
+                out.setdefault(f"m{c}{k}", 0.0)
+    elif "w" in cls.model_fields:
+        out.setdefault("w", 0.0)
+    return out
+
+
+def _moment_keys_schema(schema: dict) -> None:
+    """The m<c><k> keys of the moments form in the JSON Schema: angle parameters, nothing else extra."""
+    schema["patternProperties"] = {MOMENT_KEY.pattern: parameter_schema("angle")}
+    schema["additionalProperties"] = False
 
 
 class JointCompliance(JointEffect):
-    """Joint deflection = compliance x gravity torque from a lumped mass model."""
+    """Joint deflection under gravity. form masses: compliance x the gravity torque of lumped masses. form moments:
+    the torque is linear in the links' unknown first mass moments, and the products compliance x g x moment,
+    keys m<c><k> (axis c = x, y, z of frame F_k, links k = joint..n; angle parameters, left out: free from 0),
+    are identified with no masses given; a prismatic joint has the one product w."""
+
+    model_config = ConfigDict(extra="allow", frozen=True, json_schema_extra=_moment_keys_schema)
+    __pydantic_extra__: dict[str, AngleParam]  # the m<c><k> products (form moments)
 
     type: Literal["joint_compliance"]
-    compliance: Number = Field(0.0, description="rad per N m")
-    vary: bool = Field(True, description="identify the compliance (else keep the value given)")
-    masses: list[LinkMass] = Field([], description="lumped masses for the gravity torque (default: 5 kg at each link frame's origin beyond the joint)")
+    form: Literal["masses", "moments"] = Field(
+        "masses",
+        description="masses: one compliance times the torque of `masses`; moments: the products m<c><k> "
+        "(compliance x g x first moment of link k about axis c of its frame), no masses needed",
+    )
+    compliance: Number = Field(0.0, description="rad per N m (form masses)")
+    vary: bool = Field(True, description="identify the effect's parameters (else keep the values given)")
+    masses: list[LinkMass] = Field([], description="form masses: lumped masses for the gravity torque (default: robot.masses, else 5 kg at each link frame's origin beyond the joint, assumed)")
+    w: LengthParam | None = Field(None, description="form moments, prismatic joint: deflection along the axis under the weight beyond it, axis vertical")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _moment_products(cls, data: Any, info: ValidationInfo) -> Any:
+        return _moment_products(cls, data, info, data.get("form") == "moments" if isinstance(data, dict) else False)
+
+
+class JointBending(JointEffect):
+    """The links beyond joint `joint` tilt about o_(joint-1), about the axes square to the joint, by a bending
+    compliance times the moment of their weight there: keys m<c><k> as in joint_compliance's moments form
+    (compliance x g x first moment of link k about axis c of its frame; angle parameters, left out: free from 0).
+    Revolute joints."""
+
+    model_config = ConfigDict(extra="allow", frozen=True, json_schema_extra=_moment_keys_schema)
+    __pydantic_extra__: dict[str, AngleParam]  # the m<c><k> products
+
+    type: Literal["joint_bending"]
+    vary: bool = Field(True, description="identify the products (else keep the values given)")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _moment_products(cls, data: Any, info: ValidationInfo) -> Any:
+        return _moment_products(cls, data, info, True)
+
+
+class JointCoupling(JointEffect):
+    """Joint `from` drives joint `joint` too: the chain sees q_joint + coefficient x q_from."""
+
+    type: Literal["joint_coupling"]
+    from_joint: int = Field(alias="from", ge=1, description="the driving joint, 1-based")
+    coefficient: ScaleParam = Parameter(value=0.0)
 
 
 class Backlash(JointEffect):
@@ -131,6 +201,8 @@ Effect = Annotated[
         EncoderScale,
         GearHarmonic,
         JointCompliance,
+        JointCoupling,
+        JointBending,
         Backlash,
         ThermalDrift,
         SensorScale,
@@ -183,11 +255,10 @@ class Diagnose(SpecModel):
     max_rounds: int = Field(3, ge=0, description="effects added at most (one per round)")
     candidates: list[Literal[EFFECT_TYPES]] | None = Field(None, description="effect types tried (default: all the data allow)")  # type: ignore[valid-type]
     harmonic_orders: int = Field(3, ge=1, description="gear harmonics tried up to this order")
-    holdout: Literal["validation", "kfold"] = Field(
-        "validation",
-        description="data that must confirm an effect: the validation set (its figures are then not independent of the choice), "
-        "or k-fold cross-validation over the calibration poses (the validation set stays untouched for the final figures); "
-        "without validation data, k-fold",
+    holdout: Literal["kfold", "validation"] = Field(
+        "kfold",
+        description="data that must confirm an effect: k-fold cross-validation over the calibration poses (the validation set "
+        "stays untouched for the final figures), or the validation set (its figures are then not independent)",
     )
     folds: int = Field(5, ge=2, description="k of the k-fold cross-validation")
 

@@ -120,14 +120,14 @@ def test_an_offset_the_geometry_absorbs_is_not_distinguishable_never_found(tmp_p
 
 
 def test_clean_data_stay_clean(tmp_path):
-    """No hidden effect, 50 seeds: an effect is added in at most 5 % of the runs."""
+    """No hidden effect, 50 seeds: nothing added (the family-wise rate is 0.1 %, about 5 % over 50 campaigns)."""
     added = 0
     for seed in range(50):
         loaded = _spec(tmp_path, TRACKER, f"simulate: {{seed: {100 + seed}}}\n")
         kinematics, device, calibration, validation = _data(loaded, tmp_path)
         diagnosis = run_diagnosis(kinematics, device, calibration, validation, [], Fit(), Diagnose())
         added += bool(diagnosis.added)
-    assert added <= 2, added  # 5 % of 50
+    assert added == 0, added
 
 
 def test_a_constant_offset_proposed_as_harmonic_order_0_is_not_distinguishable(tmp_path):

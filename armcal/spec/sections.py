@@ -251,7 +251,7 @@ class Diagnose(SpecModel):
     """The residual diagnosis loop after each fit."""
 
     enabled: bool = Field(True, description="run the diagnosis after the fit")
-    alpha: float = Field(0.01, gt=0.0, lt=1.0, description="family-wise false-positive rate")
+    alpha: float = Field(0.001, gt=0.0, lt=1.0, description="family-wise false-positive rate of a round's score tests")
     max_rounds: int = Field(3, ge=0, description="effects added at most (one per round)")
     candidates: list[Literal[EFFECT_TYPES]] | None = Field(None, description="effect types tried (default: all the data allow)")  # type: ignore[valid-type]
     harmonic_orders: int = Field(3, ge=1, description="gear harmonics tried up to this order")

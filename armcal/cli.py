@@ -222,6 +222,27 @@ def import_ipa(
 
 
 @app.command()
+@user_errors
+def export(
+    source: Annotated[Path, typer.Argument(help="A calibrated spec (a run's calibrated.yaml) or a run's output folder.", show_default=False)],
+    fmt: Annotated[str, typer.Option("--format", help="urdf, dh-table or json.")],
+    out: Annotated[Path, typer.Option("--out", help="The file to write.")],
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing file.")] = False,
+) -> None:
+    """Write a calibration in a format other tools read (docs/export.md)."""
+    from armcal.export import export as export_calibration
+    from armcal.fileio import refuse_replacing, write_text_atomic
+
+    inputs = [source, source / "calibrated.yaml", source / "results.json"] if source.is_dir() else [source]
+    refuse_replacing([out], inputs, force)
+    exported = export_calibration(source, fmt)
+    write_text_atomic(out, exported.text)
+    typer.echo(f"wrote {out} ({fmt})")
+    if exported.left_out:
+        typer.echo(f"  not held by {fmt} (calibrated.yaml keeps them): {', '.join(exported.left_out)}")
+
+
+@app.command()
 def version() -> None:
     """Print armcal's version."""
     typer.echo(__version__)

@@ -1,0 +1,55 @@
+"""Calibrations out of armcal: the calibrated chain in the formats other tools read (docs/export.md).
+
+The source is a calibrated spec (a run's calibrated.yaml, or any spec: its values are
+the model) or a run's output folder (its calibrated.yaml, with results.json's
+uncertainties for the json format). Effects a kinematic format cannot hold are listed in
+the export and returned, so that the command says so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from armcal.errors import UserError
+from armcal.export.dh_table import dh_table
+from armcal.export.parameters import parameters_json
+from armcal.export.urdf import urdf
+from armcal.kinematics.compiler import compile_robot
+from armcal.report.render import read_results
+from armcal.spec import LoadedSpec, load_spec
+
+FORMATS = ("urdf", "dh-table", "json")
+
+
+@dataclass(frozen=True)
+class Export:
+    text: str
+    left_out: tuple[str, ...]  # effects (and joint scales) the format cannot hold
+
+
+def _source(path: Path) -> tuple[LoadedSpec, dict | None]:
+    """The calibrated spec of ``path`` (a spec, or a run's folder) and the run's results.json if there is one."""
+    if path.is_dir():
+        spec = path / "calibrated.yaml"
+        if not spec.exists():
+            raise UserError(f"{path}: not a run's output folder (no calibrated.yaml); give a calibrated spec or a run's folder")
+        results = read_results(path / "results.json") if (path / "results.json").exists() else None
+        return load_spec(spec), results
+    return load_spec(path), None
+
+
+def export(path: Path, fmt: str) -> Export:
+    """The calibration of ``path`` in format ``fmt`` (FORMATS)."""
+    if fmt not in FORMATS:
+        raise UserError(f"unknown format '{fmt}': choose one of {', '.join(FORMATS)}")
+    loaded, results = _source(path)
+    spec = loaded.spec
+    effects = tuple(f"{e.type}" + (f" (joint {e.joint})" if getattr(e, "joint", None) else "") for e in spec.effects)
+    if fmt == "json":
+        return Export(parameters_json(loaded, results), ())
+    kinematics = compile_robot(spec.robot)
+    if fmt == "urdf":
+        text, scaled = urdf(spec, kinematics, effects)
+        return Export(text, effects + scaled)
+    return Export(dh_table(loaded, effects), effects)

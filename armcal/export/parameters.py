@@ -1,0 +1,34 @@
+"""Every calibrated parameter and effect as JSON, for other tools: values in the spec's units, uncertainties where
+a run's results.json gives them."""
+
+from __future__ import annotations
+
+import json
+
+from armcal.kinematics.compiler import compile_robot
+from armcal.spec import LoadedSpec
+from armcal.units import from_internal
+
+
+def parameters_json(loaded: LoadedSpec, results: dict | None) -> str:
+    """JSON text: the robot, its chain parameters (value, unit, free, std) and its effects as the spec writes them."""
+    spec = loaded.spec
+    std = {p["name"]: p["std"] for p in results["parameters"]} if results else {}
+    rows = []
+    for entry in compile_robot(spec.robot).parameters.entries:
+        unit = spec.robot.units.of(entry.kind)
+        rows.append({
+            "name": entry.name,
+            "value": from_internal(entry.nominal, entry.kind, unit),
+            "unit": unit,
+            "free": entry.free,
+            "std": std.get(entry.name),
+        })
+    document = {
+        "robot": {"name": spec.robot.name, "model": spec.robot.model, "serial": spec.robot.serial, "convention": spec.robot.convention},
+        "source": str(loaded.path),
+        "run_id": results.get("run_id") if results else None,
+        "parameters": rows,
+        "effects": [e.model_dump(mode="json", by_alias=True, exclude_none=True) for e in spec.effects],
+    }
+    return json.dumps(document, indent=2) + "\n"

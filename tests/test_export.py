@@ -1,0 +1,117 @@
+"""armcal export: the URDF's forward kinematics, computed here from the XML alone (numpy, the URDF convention:
+child = parent * origin(xyz, rpy = Rz(yaw) Ry(pitch) Rx(roll)) * motion about the axis), equal armcal's chain to
+1e-6 mm; the DH table reads back the spec's values; the JSON carries results.json's uncertainties."""
+
+import json
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from conftest import SPECS, armcal_cli, copy_example
+
+from armcal.export import export
+from armcal.kinematics.compiler import compile_robot
+from armcal.pipeline import run
+from armcal.spec import load_spec
+
+CALIBRATED_UR10 = [  # a UR10 with calibration-sized deviations, Hayati's beta, a base, a tool and a point target
+    ("    - {name: shoulder_lift, limits: [-360, 360], theta: 0, d: 0, a: -612.0, alpha: 0}",
+     "    - {name: shoulder_lift, limits: [-360, 360], theta: 0.02, d: 0, a: -612.4, alpha: 0.006, beta: 0.001}"),
+    ("    - {name: wrist_1, limits: [-360, 360], theta: 0, d: 163.941, a: 0, alpha: 90}",
+     "    - {name: wrist_1, limits: [-360, 360], theta: -0.03, d: 163.6, a: 0.03, alpha: 89.99}"),
+    ("  base: {rz: {value: 180, vary: false}}", "  base: {x: 12.5, y: -3.0, z: 4.0, rz: 179.9, ry: 0.3, rx: -0.2}\n  tool: {z: 55.0, rx: 10.0}"),
+    ("  targets:\n", "  targets:\n    nest: {link: 3, x: 40.0, y: -25.0, z: 10.0}\n"),
+]
+
+
+def _rot(axis: str, angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    i, j = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}[axis]
+    R = np.eye(3)
+    R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
+    return R
+
+
+def _urdf_poses(text: str, q: np.ndarray) -> dict[str, np.ndarray]:
+    """Every link's pose (mm) in the URDF's root link at joint values q (in joint order of the file)."""
+    root = ET.fromstring(text)
+    joints = root.findall("joint")
+    moving = [j for j in joints if j.get("type") != "fixed"]
+    value = {j.get("name"): v for j, v in zip(moving, q)}
+    poses = {"world": np.eye(4)}
+    for joint in joints:  # parents come first in armcal's file
+        origin = joint.find("origin")
+        xyz = np.array(origin.get("xyz").split(), dtype=float) * 1000.0
+        roll, pitch, yaw = map(float, origin.get("rpy").split())
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = _rot("z", yaw) @ _rot("y", pitch) @ _rot("x", roll), xyz
+        motion = np.eye(4)
+        if joint.get("type") != "fixed":
+            axis = np.array(joint.find("axis").get("xyz").split(), dtype=float)
+            amount = value[joint.get("name")]
+            if joint.get("type") == "prismatic":
+                motion[:3, 3] = axis * amount
+            else:
+                K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+                motion[:3, :3] = np.eye(3) + np.sin(amount) * K + (1 - np.cos(amount)) * K @ K
+        poses[joint.find("child").get("link")] = poses[joint.find("parent").get("link")] @ T @ motion
+    return poses
+
+
+def _spec(tmp_path, name, changes=()):
+    text = (SPECS / name).read_text()
+    for old, new in changes:
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("name, changes", [("ur10.yaml", CALIBRATED_UR10), ("puma560_six.yaml", ()), ("puma560_dh.yaml", ())])
+def test_the_urdf_moves_as_armcals_chain(tmp_path, name, changes):
+    path = _spec(tmp_path, name, changes)
+    exported = export(path, "urdf")
+    kinematics = compile_robot(load_spec(path).spec.robot)
+    rng = np.random.default_rng(4)
+    for q in rng.uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (25, kinematics.dof)):
+        poses = _urdf_poses(exported.text, q)
+        np.testing.assert_allclose(poses["tool0"], kinematics.tool_poses(q[None])[0], atol=1e-6)
+        for target in kinematics.targets:
+            np.testing.assert_allclose(poses[target], kinematics.target_poses(target, q[None])[0], atol=1e-6)
+
+
+def test_an_encoder_scale_the_urdf_cannot_hold_is_named(tmp_path):
+    path = _spec(tmp_path, "puma560_six.yaml", [("    - {name: j3, limits: [-45, 225], theta0: 0, k: 1}",
+                                                 "    - {name: j3, limits: [-45, 225], theta0: 0, k: 1.001}")])
+    assert export(path, "urdf").left_out == ("encoder scale of j3",)
+
+
+def test_the_dh_table_reads_back_the_spec_and_refuses_other_chains(tmp_path):
+    path = _spec(tmp_path, "ur10.yaml", CALIBRATED_UR10)
+    rows = [line.split("\t") for line in export(path, "dh-table").text.splitlines() if not line.startswith("#")]
+    assert rows[0] == ["joint", "type", "theta (deg)", "d (mm)", "a (mm)", "alpha (deg)", "beta (deg)"]
+    lift = dict(zip(rows[0], rows[2]))
+    assert lift["joint"] == "shoulder_lift" and float(lift["a (mm)"]) == -612.4 and float(lift["beta (deg)"]) == 0.001
+    assert float(dict(zip(rows[0], rows[4]))["alpha (deg)"]) == 89.99
+    result = armcal_cli("export", str(SPECS / "puma560_six.yaml"), "--format", "dh-table", "--out", str(tmp_path / "t.txt"))
+    assert result.returncode == 1 and "six_parameter; a DH table cannot hold it" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_json_from_a_run_folder_carries_the_results_uncertainties_and_nothing_is_replaced(tmp_path):
+    copy_example("hidden_harmonic", tmp_path)
+    results = run(tmp_path / "spec.yaml", tmp_path / "out", pdf=False).results
+    out = tmp_path / "cal.json"
+    first = armcal_cli("export", str(tmp_path / "out"), "--format", "json", "--out", str(out))
+    assert first.returncode == 0, first.stderr
+    document = json.loads(out.read_text())
+    by_name = {p["name"]: p for p in document["parameters"]}
+    for parameter in results.parameters:
+        if parameter.name in by_name:
+            assert by_name[parameter.name]["value"] == pytest.approx(parameter.value, rel=1e-12, abs=1e-12)
+            assert by_name[parameter.name]["std"] == parameter.std
+    assert [e["type"] for e in document["effects"]] == [e.type for e in results.diagnosis.added_effects]
+    again = armcal_cli("export", str(tmp_path / "out"), "--format", "json", "--out", str(out))
+    assert again.returncode == 1 and "--force" in again.stderr
+    onto_input = armcal_cli("export", str(tmp_path / "out"), "--format", "json", "--out", str(tmp_path / "out" / "calibrated.yaml"), "--force")
+    assert onto_input.returncode == 1 and "never replaced" in onto_input.stderr

@@ -221,25 +221,64 @@ def import_ipa(
     typer.echo(f"wrote {out}: {len(measurements)} samples")
 
 
+CalibratedArg = Annotated[Path, typer.Argument(help="A calibrated spec (a run's calibrated.yaml) or a run's output folder.", show_default=False)]
+OutFileOption = Annotated[Path, typer.Option("--out", help="The file to write.")]
+ForceOption = Annotated[bool, typer.Option("--force", help="Replace an existing file.")]
+
+
+def _calibration_inputs(source: Path) -> list[Path]:
+    """The files a calibration source is read from: never replaced by an export."""
+    return [source, source / "calibrated.yaml", source / "results.json"] if source.is_dir() else [source]
+
+
 @app.command()
 @user_errors
 def export(
-    source: Annotated[Path, typer.Argument(help="A calibrated spec (a run's calibrated.yaml) or a run's output folder.", show_default=False)],
+    source: CalibratedArg,
     fmt: Annotated[str, typer.Option("--format", help="urdf, dh-table or json.")],
-    out: Annotated[Path, typer.Option("--out", help="The file to write.")],
-    force: Annotated[bool, typer.Option("--force", help="Replace an existing file.")] = False,
+    out: OutFileOption,
+    force: ForceOption = False,
 ) -> None:
     """Write a calibration in a format other tools read (docs/export.md)."""
     from armcal.export import export as export_calibration
     from armcal.fileio import refuse_replacing, write_text_atomic
 
-    inputs = [source, source / "calibrated.yaml", source / "results.json"] if source.is_dir() else [source]
-    refuse_replacing([out], inputs, force)
+    refuse_replacing([out], _calibration_inputs(source), force)
     exported = export_calibration(source, fmt)
     write_text_atomic(out, exported.text)
     typer.echo(f"wrote {out} ({fmt})")
     if exported.left_out:
         typer.echo(f"  not held by {fmt} (calibrated.yaml keeps them): {', '.join(exported.left_out)}")
+
+
+@app.command()
+@user_errors
+def compensate(
+    source: CalibratedArg,
+    targets: Annotated[Path, typer.Option("--targets", help="CSV of targets: name, x, y, z, rx, ry, rz (spec units), optional seeds q1..qn.")],
+    out: OutFileOption,
+    force: ForceOption = False,
+) -> None:
+    """Joint commands that reach Cartesian targets on the calibrated robot, its effects included (docs/export.md)."""
+    from armcal.export import calibration_source
+    from armcal.export.compensation import compensate as compensated_commands
+    from armcal.fileio import read_input, refuse_replacing, write_text_atomic
+
+    refuse_replacing([out], [*_calibration_inputs(source), targets], force)
+    loaded, results = calibration_source(source)
+    try:
+        text = read_input(targets, "data").decode("utf-8")
+    except UnicodeDecodeError:
+        raise UserError(f"{targets}: not UTF-8 text") from None
+    commands, unreached, left_out = compensated_commands(loaded, results, text, str(targets))
+    write_text_atomic(out, commands)
+    typer.echo(f"wrote {out}: {commands.count(chr(10)) - 1 - len(unreached)} targets reached" + (f", {len(unreached)} not" if unreached else ""))
+    for line in unreached:
+        typer.echo(f"  unreachable: {line}")
+    if left_out:
+        typer.echo(f"  not compensated (they do not follow the joints alone): {', '.join(left_out)}")
+    if results is None:
+        typer.echo("  no corrected Cartesian targets: they need the nominal model, in a run's results.json (give the run's folder)")
 
 
 @app.command()

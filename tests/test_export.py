@@ -2,6 +2,7 @@
 child = parent * origin(xyz, rpy = Rz(yaw) Ry(pitch) Rx(roll)) * motion about the axis), equal armcal's chain to
 1e-6 mm; the DH table reads back the spec's values; the JSON carries results.json's uncertainties."""
 
+import csv
 import json
 import xml.etree.ElementTree as ET
 
@@ -11,6 +12,7 @@ from conftest import SPECS, armcal_cli, copy_example
 
 from armcal.export import export
 from armcal.kinematics.compiler import compile_robot
+from armcal.kinematics.transforms import pose_from_matrix
 from armcal.pipeline import run
 from armcal.spec import load_spec
 
@@ -115,3 +117,41 @@ def test_json_from_a_run_folder_carries_the_results_uncertainties_and_nothing_is
     assert again.returncode == 1 and "--force" in again.stderr
     onto_input = armcal_cli("export", str(tmp_path / "out"), "--format", "json", "--out", str(tmp_path / "out" / "calibrated.yaml"), "--force")
     assert onto_input.returncode == 1 and "never replaced" in onto_input.stderr
+
+
+HARMONIC = "effects:\n  - {type: gear_harmonic, joint: 2, order: 1, sin: 0.05 deg, cos: -0.03 deg}\n  - {type: encoder_scale, joint: 3, scale: 0.0004}\n"
+
+
+def test_compensated_commands_recover_the_commands_that_made_the_targets(tmp_path):
+    """Targets made here: commands q drawn at random, the robot's joints at q + Delta(q) computed in numpy from the
+    effects' formulas (harmonic A sin q2 + B cos q2, scale s q3), the calibrated chain's pose there. compensate,
+    seeded 2 deg away, returns q to 1e-9 rad; a target 10 m away is named unreachable, not dropped."""
+    text = (SPECS / "ur10.yaml").read_text().replace("armcal: 1\n", f"armcal: 1\n{HARMONIC}", 1)  # mm and deg
+    spec_path = tmp_path / "calibrated.yaml"
+    spec_path.write_text(text)
+    kinematics = compile_robot(load_spec(spec_path).spec.robot)
+    rng = np.random.default_rng(11)
+    low, high = kinematics.limits[:, 0], kinematics.limits[:, 1]
+    command = rng.uniform(low + 0.3 * (high - low), high - 0.3 * (high - low), (20, kinematics.dof))
+    command[:, 2] = rng.choice([-1, 1], 20) * rng.uniform(0.2, 2.5, 20)  # the elbow bent: one branch near the seed
+    actual = command.copy()
+    actual[:, 1] += np.deg2rad(0.05) * np.sin(command[:, 1]) - np.deg2rad(0.03) * np.cos(command[:, 1])
+    actual[:, 2] += 0.0004 * command[:, 2]
+    poses = kinematics.tool_poses(actual)
+    seeds = np.rad2deg(command) + 2.0
+    lines = ["name,x,y,z,rx,ry,rz," + ",".join(f"q{i}" for i in range(1, 7))]
+    for i, T in enumerate(poses):
+        x, y, z, rz, ry, rx = pose_from_matrix(T)
+        lines.append(",".join([f"t{i}", *(repr(float(v)) for v in (x, y, z, *np.rad2deg([rx, ry, rz]), *seeds[i]))]))
+    lines.append("far,10000,0,0,0,0,0" + ",0" * 6)
+    (tmp_path / "targets.csv").write_text("\n".join(lines) + "\n")
+    result = armcal_cli("compensate", str(spec_path), "--targets", str(tmp_path / "targets.csv"), "--out", str(tmp_path / "commands.csv"))
+    assert result.returncode == 0, result.stderr
+    assert "unreachable: far" in result.stdout
+    with open(tmp_path / "commands.csv") as stream:
+        rows = list(csv.DictReader(stream))
+    assert [r["name"] for r in rows] == [f"t{i}" for i in range(20)] + ["far"]
+    assert rows[-1]["status"].startswith("unreachable")
+    got = np.array([[float(r[f"q{j}"]) for j in range(1, 7)] for r in rows[:-1]])
+    assert all(r["status"] == "ok" for r in rows[:-1])
+    np.testing.assert_allclose(np.deg2rad(got), command, atol=1e-9)

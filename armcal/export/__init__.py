@@ -28,7 +28,7 @@ class Export:
     left_out: tuple[str, ...]  # effects (and joint scales) the format cannot hold
 
 
-def _source(path: Path) -> tuple[LoadedSpec, dict | None]:
+def calibration_source(path: Path) -> tuple[LoadedSpec, dict | None]:
     """The calibrated spec of ``path`` (a spec, or a run's folder) and the run's results.json if there is one."""
     if path.is_dir():
         spec = path / "calibrated.yaml"
@@ -43,7 +43,7 @@ def export(path: Path, fmt: str) -> Export:
     """The calibration of ``path`` in format ``fmt`` (FORMATS)."""
     if fmt not in FORMATS:
         raise UserError(f"unknown format '{fmt}': choose one of {', '.join(FORMATS)}")
-    loaded, results = _source(path)
+    loaded, results = calibration_source(path)
     spec = loaded.spec
     effects = tuple(f"{e.type}" + (f" (joint {e.joint})" if getattr(e, "joint", None) else "") for e in spec.effects)
     if fmt == "json":

@@ -1,0 +1,151 @@
+"""Compensated joint commands for Cartesian targets (program filtering): what to command so that the calibrated
+robot, its joint-side effects included, reaches each target.
+
+For a target frame T* (position and orientation, in the chain's world frame) the joints that put the calibrated
+chain there, q*, come from Newton-Raphson inverse kinematics (Stone 5.4, kinematics/ik.py), from the row's seed or,
+without one, the branch nearest the middle of the joint limits. The robot's joints then sit at
+q + Delta(q) when commanded q (encoder scale, gear harmonics, compliance, coupling: effects/model.py), so the
+command solves q + Delta(q) = q*, by the fixed point q <- q* - Delta(q) (Delta is small and slowly varying:
+each step shrinks the error by about |dDelta/dq|). The corrected Cartesian target is the pose the nominal model
+reaches at that command: a controller that keeps its nominal model, given it, commands the same joints.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import casadi as ca
+import numpy as np
+
+from armcal.effects.library import from_spec
+from armcal.effects.model import EffectSet, extras_size
+from armcal.errors import UserError
+from armcal.kinematics import ik
+from armcal.kinematics.compiler import KinematicModel, compile_robot
+from armcal.kinematics.transforms import pose_from_matrix, xyz_zyx
+from armcal.spec import LoadedSpec
+from armcal.spec.robot import joint_kind
+from armcal.units import factor, to_internal
+
+COMPENSATED = ("encoder_scale", "gear_harmonic", "joint_compliance", "joint_coupling")  # functions of the joints alone
+POSE = ("x", "y", "z", "rx", "ry", "rz")
+FIXED_POINT_STEPS = 50
+FIXED_POINT_TOLERANCE = 1e-13  # rad or mm
+REACHED = 1e-4  # mm (and the axis columns' difference): a target the calibrated robot reaches
+
+
+def _targets(text: str, name: str, units, joints: list[tuple[str, str]]) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """(labels, goals (N, 12) internal, seeds (N, n), NaN where none) of a targets CSV."""
+    rows = list(csv.DictReader(io.StringIO(text)))
+    if not rows:
+        raise UserError(f"{name}: no targets (a header with {', '.join(POSE)}, then one row per target)")
+    missing = [c for c in POSE if c not in rows[0]]
+    if missing:
+        raise UserError(f"{name}: line 1: missing column(s) {', '.join(missing)} (position and orientation of each target)")
+    labels, goals, seeds = [], [], []
+    for line, row in enumerate(rows, start=2):
+        kinds = [*(("length", units.length),) * 3, *(("angle", units.angle),) * 3]
+        kinds += [(joint_kind(kind), units.of(joint_kind(kind))) for _, kind in joints]
+        values = []
+        for column, (kind, unit) in zip([*POSE, *(j for j, _ in joints)], kinds):
+            if column not in POSE and row.get(column) in (None, ""):
+                values.append(np.nan)  # no seed for this joint
+                continue
+            try:
+                values.append(to_internal(float(row[column] or "nan"), kind, unit))
+            except (TypeError, ValueError) as exc:
+                raise UserError(f"{name}: line {line}, column {column}: {exc}") from None
+        x, y, z, rx, ry, rz = values[:6]
+        seed = values[6:]
+        T = np.array(ca.DM(xyz_zyx(x, y, z, rz, ry, rx)))
+        goals.append(ik.pose_goals(T[None])[0])
+        seeds.append(seed)
+        labels.append(row.get("name") or str(line - 1))
+    return labels, np.array(goals), np.array(seeds, dtype=float)
+
+
+def _deviation(kinematics: KinematicModel, effects: EffectSet):
+    """q -> Delta(q) of the joint-side effects (rows of Q)."""
+    function = effects.joint_deviation_function(kinematics)
+    x = np.zeros(extras_size(kinematics.dof))
+    p, pe = kinematics.parameters.nominal, effects.values()
+    return lambda Q: np.array([np.array(function(q, x, p, pe)[0]).ravel() for q in Q]).reshape(Q.shape)
+
+
+def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targets_name: str) -> tuple[str, list[str], list[str]]:
+    """(CSV text of the commands, the targets not reached with why, the effects not compensated)."""
+    spec = loaded.spec
+    kinematics = compile_robot(spec.robot)
+    joints = list(zip([f"q{i}" for i in range(1, kinematics.dof + 1)], kinematics.joint_types))
+    labels, goals, seeds = _targets(targets_text, targets_name, spec.robot.units, joints)
+    effects = [from_spec(e) for e in spec.effects]
+    left_out = sorted({e.id for e in effects if e.type not in COMPENSATED})
+    deviation = _deviation(kinematics, EffectSet(tuple(e for e in effects if e.type in COMPENSATED)))
+    unseeded = np.isnan(seeds).any(axis=1)
+    start = seeds.copy()
+    if unseeded.any():
+        middle = np.tile(kinematics.limits.mean(axis=1), (int(unseeded.sum()), 1))
+        start[unseeded] = _nearest_turn(kinematics, ik.solve_from_starts(kinematics, goals[unseeded]), middle)
+    found = ~np.isnan(start).any(axis=1)
+    reached = np.zeros((len(goals), kinematics.dof))
+    if found.any():
+        solved = ik.solve(kinematics, goals[found], start[found], halvings=ik.SAFE_HALVINGS)
+        reached[found] = _nearest_turn(kinematics, solved.q, start[found])
+        found[np.flatnonzero(found)[~solved.converged]] = False
+    command = reached.copy()
+    for _ in range(FIXED_POINT_STEPS):
+        previous, command = command, reached - deviation(command)
+        if np.max(np.abs(command - previous)) < FIXED_POINT_TOLERANCE:
+            break
+    inside = ik.within_limits(kinematics, command)
+    error = np.full(len(goals), np.nan)
+    actual = kinematics.tool_poses(command + deviation(command))
+    error[found] = np.linalg.norm(actual[found, :3, 3] - goals[found, :3], axis=1)
+    nominal = _nominal(kinematics, results)
+    corrected = kinematics.tool_poses(command, nominal) if nominal is not None else None
+    units = spec.robot.units
+    header = ["name", "status", *(j for j, _ in joints), "position_error_mm"] + ([f"corrected_{c}" for c in POSE] if corrected is not None else [])
+    out, unreached = io.StringIO(), []
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(header)
+    for i, label in enumerate(labels):
+        status = "ok" if found[i] and inside[i] and error[i] < REACHED else (
+            "unreachable: outside the joint limits" if found[i] and not inside[i] else
+            "unreachable: no inverse-kinematics solution" if not found[i] else f"unreachable: {error[i]:.3g} mm off")
+        if status != "ok":
+            unreached.append(f"{label} ({status[13:]})")
+        row = [label, status]
+        row += [f"{command[i, j] / factor(joint_kind(kind), units.of(joint_kind(kind))):.12g}" if found[i] else "" for j, (_, kind) in enumerate(joints)]
+        row.append(f"{error[i]:.3g}" if found[i] else "")
+        if corrected is not None and not found[i]:
+            row += [""] * len(POSE)
+        elif corrected is not None:
+            x, y, z, rz, ry, rx = pose_from_matrix(corrected[i])
+            row += [f"{v / factor('length', units.length):.12g}" for v in (x, y, z)] + [f"{v / factor('angle', units.angle):.12g}" for v in (rx, ry, rz)]
+        writer.writerow(row)
+    return out.getvalue(), unreached, left_out
+
+
+def _nearest_turn(kinematics: KinematicModel, Q: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """Revolute joint values shifted by whole turns to the ones nearest the start (the seed's branch)."""
+    Q = Q.copy()
+    for i, kind in enumerate(kinematics.joint_types):
+        if kind == "revolute":
+            Q[:, i] = start[:, i] + np.mod(Q[:, i] - start[:, i] + np.pi, 2 * np.pi) - np.pi
+    return Q
+
+
+def _nominal(kinematics: KinematicModel, results: dict | None) -> np.ndarray | None:
+    """The robot's nominal parameter vector from a run's results.json (its parameters' nominal values), else None."""
+    if results is None:
+        return None
+    given = {p["name"]: (p["nominal"], p["unit"]) for p in results["parameters"]}
+    out = kinematics.parameters.nominal.copy()
+    for i, entry in enumerate(kinematics.parameters.entries):
+        if entry.name in given:
+            value, unit = given[entry.name]
+            out[i] = to_internal(value, entry.kind, unit) if entry.kind in ("length", "angle") else value
+    return out
+
+

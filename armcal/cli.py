@@ -281,6 +281,19 @@ def compensate(
         typer.echo("  no corrected Cartesian targets: they need the nominal model, in a run's results.json (give the run's folder)")
 
 
+@app.command(name="compare")
+@user_errors
+def compare_calibrations(
+    old: Annotated[Path, typer.Argument(help="The earlier calibration: a results.json or a run's folder.", show_default=False)],
+    new: Annotated[Path, typer.Argument(help="The later calibration of the same robot.", show_default=False)],
+) -> None:
+    """Each parameter's change between two calibrations of one robot, in units of the combined uncertainty."""
+    from armcal.results.compare import compare
+
+    table, _ = compare(old, new)
+    typer.echo(table, nl=False)
+
+
 @app.command()
 def version() -> None:
     """Print armcal's version."""

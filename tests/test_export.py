@@ -155,3 +155,26 @@ def test_compensated_commands_recover_the_commands_that_made_the_targets(tmp_pat
     got = np.array([[float(r[f"q{j}"]) for j in range(1, 7)] for r in rows[:-1]])
     assert all(r["status"] == "ok" for r in rows[:-1])
     np.testing.assert_allclose(np.deg2rad(got), command, atol=1e-9)
+
+
+def test_compare_flags_a_change_beyond_its_combined_uncertainty(tmp_path):
+    """The same run twice, one parameter moved by 5 combined standard uncertainties and another by 1: only the first
+    is significant; another robot's results are refused."""
+    copy_example("hidden_harmonic", tmp_path)
+    run(tmp_path / "spec.yaml", tmp_path / "out", pdf=False)
+    old = json.loads((tmp_path / "out" / "results.json").read_text())
+    free = [p for p in old["parameters"] if p["free"] and p["std"]]
+    new = json.loads(json.dumps(old))
+    moved = {free[0]["name"]: 5.0, free[1]["name"]: 1.0}
+    for p in new["parameters"]:
+        if p["name"] in moved:
+            p["value"] += moved[p["name"]] * np.hypot(p["std"], p["std"])
+    (tmp_path / "new.json").write_text(json.dumps(new))
+    result = armcal_cli("compare", str(tmp_path / "out"), str(tmp_path / "new.json"))
+    assert result.returncode == 0, result.stderr
+    flagged = [line.split()[0] for line in result.stdout.splitlines() if line.endswith("significant")]
+    assert flagged == [free[0]["name"]] and "1 significant change(s)" in result.stdout
+    new["robot"]["serial"] = "another"
+    (tmp_path / "other.json").write_text(json.dumps(new))
+    refused = armcal_cli("compare", str(tmp_path / "out"), str(tmp_path / "other.json"))
+    assert refused.returncode == 1 and "one robot" in refused.stderr

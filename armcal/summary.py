@@ -99,7 +99,7 @@ def noise_lines(noise) -> list[str]:
     lines = [f"  noise from the data ({noise.method.split(' (')[0]}, {noise.rounds} rounds"
              + ("" if noise.converged else ", NOT converged") + "):"]
     for g in noise.groups:
-        line = f"    {g.group}: sigma {g.sigma:.4g} +- {g.std:.2g} {g.unit} ({g.readings} readings)"
+        line = f"    {g.group}: sigma {g.sigma:.4g} +- {g.std:.2g} {g.unit} per reading ({g.readings} readings)"
         if g.test is not None:
             line += "; " + VARIANCE_VERDICTS[g.test.verdict].format(declared=g.declared, unit=g.unit, p=g.test.p_value)
         lines.append(line)
@@ -123,7 +123,7 @@ def run_summary(outcome) -> str:
     if r.noise is not None:
         lines += noise_lines(r.noise)
     lines.append(f"  noise check chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g} (p = {r.noise_check.p_value:.3g})"
-                 + (", by construction with the noise estimated" if r.noise is not None else ""))
+                 + (" (with the estimated sigmas: 1 wherever every group is estimated)" if r.noise is not None else ""))
     if r.noise_check.verdict != "consistent":
         lines.append(f"  {NOISE_VERDICTS[r.noise_check.verdict]}")
     for flat in r.identifiability.flat_directions:

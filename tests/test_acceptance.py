@@ -10,7 +10,7 @@ import pytest
 from conftest import copy_example
 from test_diagnosis import TRACKER, _data, _spec
 
-from armcal.diagnose.loop import _Context, folds_along, holds_out, run_diagnosis
+from armcal.diagnose.loop import _Context, contiguous_folds, folds_along, holds_out, run_diagnosis
 from armcal.effects.library import EffectSpec, coupling
 from armcal.effects.model import EffectSet
 from armcal.pipeline import run
@@ -55,6 +55,8 @@ def test_a_joint_effect_is_cross_validated_over_contiguous_ranges_of_its_joint(t
         assert np.ptp(np.bincount(fold)) <= 1
         ranges = [(poses[fold == k, joint - 1].min(), poses[fold == k, joint - 1].max()) for k in range(5)]
         assert all(high < low for (_, high), (low, _) in zip(ranges, ranges[1:]))
+    circle_point = np.r_[np.zeros(75), np.linspace(-1.0, 1.0, 15)]  # a joint still in 75 of 90 poses, then its circle
+    np.testing.assert_array_equal(contiguous_folds(circle_point, 5), np.arange(90) % 5)
     assert folds_along(EffectSpec("gear_harmonic", joint=2, order=3)) == 2
     assert folds_along(coupling(3, 2)) == 2
     assert folds_along(EffectSpec("sensor_scale")) is None

@@ -67,7 +67,7 @@ def _check_noise(results, out) -> None:
         assert group.test.verdict == "declared_too_small"  # 0.03 mm and 0.002 deg declared; the data say 0.28 and 0.034
     html = (out / "certificate.html").read_text()
     for group in groups.values():
-        assert f"{group.sigma:.4f} +- {group.std:.4f} {group.unit}" in html
+        assert f"{group.sigma:.4g} +- {group.std:.2g} {group.unit}" in html
 
 
 def test_validate_on_series_d_with_the_moved_tracker(tmp_path):

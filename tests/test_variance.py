@@ -291,3 +291,37 @@ def test_sonic_sigma_per_microphone(tmp_path):
     for channel, true in truth_sigma.items():
         group = found[f"range, microphone {channel[2:]}"]
         assert group.readings == len(data) and abs(group.sigma / true - 1) < 0.10, (channel, group.sigma)
+
+
+def test_a_range_noise_model_keeps_estimating_in_the_calibrated_spec(tmp_path):
+    """A sonic digitizer's a s + b cannot hold one sigma: calibrated.yaml keeps the model and estimate_noise, loads,
+    and a run of it estimates the same sigma, to a tenth of its standard deviation."""
+    from conftest import copy_example
+
+    from armcal.pipeline import run
+
+    copy_example("puma560_sonic", tmp_path)
+    spec = tmp_path / "spec.yaml"
+    old = "  noise: {a: 9.6432e-5, b: 0.003}"
+    text = spec.read_text()
+    assert old in text
+    spec.write_text(text.replace(old, old + "\n  estimate_noise: true").replace("armcal: 1\n", "armcal: 1\ndiagnose: {enabled: false}\n", 1))
+    first = run(spec, tmp_path / "out", pdf=False).results
+    calibrated = load_spec(tmp_path / "out" / "calibrated.yaml").spec
+    assert calibrated.device.estimate_noise and calibrated.device.noise.a == pytest.approx(9.6432e-5)  # the declared model kept
+    second = run(tmp_path / "out" / "calibrated.yaml", tmp_path / "again", pdf=False).results
+    for a, b in zip(first.noise.groups, second.noise.groups):
+        assert a.group == b.group and abs(b.sigma - a.sigma) < 0.1 * a.std  # far inside its own uncertainty
+
+
+def test_a_validation_group_the_calibration_lacks_is_a_located_error(tmp_path):
+    """Goswami's held-out shells use the 15 mm rod, the calibration shells never do: per pairing, their noise has no
+    estimate, and the run says so, naming the validation file."""
+    from conftest import armcal_cli, copy_example
+
+    copy_example("goswami_ballbar", tmp_path)
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(spec.read_text().replace("  noise: 0.0084", "  noise: auto\n  noise_groups: [kind, pairing]", 1))
+    result = armcal_cli("run", str(spec), "--out", str(tmp_path / "out"), "--no-pdf")
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert "which the calibration data do not have" in result.stderr and ".csv" in result.stderr

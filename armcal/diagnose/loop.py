@@ -94,7 +94,7 @@ class _Context:
         folds = settings.folds
         self.folds = {None: np.arange(len(poses)) % folds}  # interleaved; per joint: contiguous ranges of its angle
         for joint in range(kinematics.dof):
-            self.folds[joint + 1] = np.argsort(np.argsort(poses[:, joint], kind="stable")) * folds // len(poses)
+            self.folds[joint + 1] = contiguous_folds(poses[:, joint], folds)
 
     def held_out_errors(
         self, problem: Problem, theta: np.ndarray, free: set[str], identifiability: Identifiability, along: int | None = None
@@ -120,6 +120,16 @@ class _Context:
     def _problem(self, data: Measurements, like: Problem, free: set[str]) -> Problem:
         problem = build_problem(self.kinematics, self.device, data, self.effects)
         return with_free(replace(problem, parameters=like.parameters), free) if free else replace(problem, parameters=like.parameters)
+
+
+def contiguous_folds(values: np.ndarray, folds: int) -> np.ndarray:
+    """Fold of each pose: contiguous ranges of one joint's ``values``, equal in size; interleaved where the joint sits
+    at one value in more than a fold's share of the poses (a circle-point campaign moves one joint at a time, and
+    ranges of a still joint would split the poses by the other joints instead)."""
+    _, counts = np.unique(values, return_counts=True)
+    if counts.max() > len(values) / folds:
+        return np.arange(len(values)) % folds
+    return np.argsort(np.argsort(values, kind="stable")) * folds // len(values)
 
 
 def folds_along(effect: EffectSpec) -> int | None:

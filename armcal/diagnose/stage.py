@@ -78,6 +78,8 @@ def identify_and_diagnose(
     noise = None
     if wants_estimation(device):
         noise, device = noise_from_data(spec, kinematics, device, calibration)
+        if validation is not None:
+            _validation_groups_estimated(spec, device, noise, validation)
     problem, start = calibration_problem(spec, kinematics, device, calibration)
     if settings.enabled and settings.max_rounds > 0 and spec.fit.method == "least_squares":
         moved = spec.data is not None and spec.data.instrument_moved
@@ -105,6 +107,21 @@ def noise_from_data(spec: Spec, kinematics: KinematicModel, device: DeviceModel,
     problem = rescaled(problem, readings_groups(unit, problem), unit.noise_scale, provisional.noise_scale)
     estimates, _ = estimate_noise(provisional, problem, spec.fit, start, design_identifiability(problem, start))
     return estimates, device.with_noise_scale({**unit.noise_scale, **estimates.scale})
+
+
+def _validation_groups_estimated(spec: Spec, device: DeviceModel, noise: NoiseEstimates, validation: Measurements) -> None:
+    """Every validation reading whose noise is estimated belongs to a group the calibration data estimated."""
+    estimated = {g.group for g in noise.groups}
+    fields = set(spec.device.estimated_fields())
+    for key in validation.groups():
+        for channel in device.channels(key):
+            group = device.noise_group(key, channel.name)
+            if group is not None and device.noise_field(key, channel.name) in fields and group not in estimated:
+                where = spec.data.validation if spec.data is not None else "the validation data"
+                raise UserError(
+                    f"{where}: readings of noise group {group!r}, which the calibration data do not have: its noise cannot "
+                    "be estimated; declare its sigma, or group more coarsely (device.noise_groups)"
+                )
 
 
 def _final_noise(diagnosis: Diagnosis, device: DeviceModel, spec: Spec, noise: NoiseEstimates) -> tuple[Diagnosis, NoiseEstimates]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import base64
 import math
 
+from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.units import ANGLE_UNITS, factor
 
 PLOT_TITLES = {
@@ -223,13 +224,14 @@ def _estimated_noise(noise: dict | None) -> dict | None:
         test = g["test"]
         rows.append({
             "group": g["group"],
-            "sigma": f"{number(g['sigma'], 4)} +- {number(g['std'], 4)} {g['unit']}",
-            "interval": f"{number(g['interval'][0], 4)} - {number(g['interval'][1], 4)} {g['unit']}",
+            "sigma": f"{g['sigma']:.4g} +- {g['std']:.2g} {g['unit']}",  # as the terminal prints it
+            "interval": f"{g['interval'][0]:.4g} - {g['interval'][1]:.4g} {g['unit']}",
             "readings": str(g["readings"]),
-            "declared": f"{number(g['declared'], 4)} {g['unit']}" if g["declared"] is not None else "auto (none declared)",
+            "declared": f"{g['declared']:.4g} {g['unit']}" if g["declared"] is not None else "auto (none declared)",
             "test": f"{VARIANCE_VERDICTS[test['verdict']]} (p = {test['p_value']:.2g})" if test else "-",
         })
-    return {"method": noise["method"], "rounds": str(noise["rounds"]), "converged": noise["converged"], "rows": rows}
+    return {"method": noise["method"], "rounds": str(noise["rounds"]), "converged": noise["converged"], "rows": rows,
+            "level": f"{NOISE_CHECK_LEVEL:.0%}"}
 
 
 def certificate_context(results: dict, plots: dict[str, str]) -> dict:

@@ -16,6 +16,7 @@ import io
 import os
 from pathlib import Path
 
+from pydantic import TypeAdapter, ValidationError
 from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
@@ -115,8 +116,9 @@ def calibrated_yaml(
         device = root["device"]
         for field, (sigma, kind) in noise.items():
             device[field] = shown(sigma, kind)
-        for key in ("estimate_noise", "noise_groups"):
-            device.pop(key, None)
+        if set(noise) == set(spec.device.estimated_fields()):  # every estimated field now holds its estimate
+            for key in ("estimate_noise", "noise_groups"):
+                device.pop(key, None)
     if spec.data is not None and "data" in root:
         for key in ("calibration", "validation"):
             if root["data"].get(key):
@@ -126,6 +128,21 @@ def calibrated_yaml(
     out = io.StringIO()
     yaml.dump(root, out)
     return out.getvalue()
+
+
+def _plain_sigmas(spec: Spec, estimates: dict[str, tuple[float, str]] | None) -> dict[str, tuple[float, str]] | None:
+    """The estimates whose device field takes one sigma; a noise model (a sonic digitizer's a s + b) keeps estimating."""
+    if not estimates:
+        return None
+    fields = type(spec.device).model_fields
+    plain = {}
+    for field, estimate in estimates.items():
+        try:
+            TypeAdapter(fields[field].annotation).validate_python(1.0)
+        except ValidationError:
+            continue
+        plain[field] = estimate
+    return plain or None
 
 
 def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
@@ -145,7 +162,7 @@ def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
             identified[entry.name] = (float(value), entry.kind, redundant)
         held += [entry.name] if redundant else []
     new_effects = [(e, {p.name.rsplit(".", 1)[1]: (float(theta[index(p.name)]), p.kind) for p in e.parameters()}) for e in added]
-    noise = calibrated.noise.spec_values() if calibrated.noise else None
+    noise = _plain_sigmas(loaded.spec, calibrated.noise.spec_values()) if calibrated.noise else None
     note = (
         f"Calibrated by armcal {__version__} on {results.created} from {loaded.path.name} "
         f"(sha256 {loaded.sha256[:12]}), run {results.run_id}, status {results.status}."

@@ -129,7 +129,7 @@ def test_calibrated_yaml_with_an_added_coupling_reproduces_the_fit(tmp_path):
     info = write_campaign(tmp_path, "puma560", [coupling(3, 2)], seed=0, sigmas=3.0)
     first, _ = round_trip(info["spec"], tmp_path / "out")
     [added] = first.diagnosis.added_effects
-    assert (added.type, added.joint) == ("joint_coupling", 3)
+    assert (added.type, added.joint, added.from_joint) == ("joint_coupling", 3, 2)  # driven 3, driving 2, as simulated
     assert [p.unit for p in added.parameters] == ["1"]
 
 

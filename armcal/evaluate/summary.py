@@ -160,7 +160,8 @@ def effect_result(loaded: LoadedSpec, effect: EffectSpec, problem, theta: np.nda
         unit = loaded.spec.robot.units.of(p.kind)
         shown = lambda v: None if v is None or np.isnan(v) else from_internal(float(v), p.kind, unit)  # noqa: E731
         parameters.append({"name": p.name, "value": shown(theta[i]), "std": shown(std[i]), "unit": unit})
-    return {"type": effect.type, "joint": effect.joint, "order": effect.order, "parameters": parameters}
+    return {"type": effect.type, "joint": effect.joint, "order": effect.order, "parameters": parameters,
+            "from_joint": effect.source_joint, "form": effect.form if effect.type == "joint_compliance" else None}
 
 
 def diagnosis_block(loaded: LoadedSpec, calibration: Calibration) -> dict:
@@ -179,6 +180,7 @@ def diagnosis_block(loaded: LoadedSpec, calibration: Calibration) -> dict:
                         "id": t.effect.id,
                         "joint": t.effect.joint,
                         "order": t.effect.order,
+                        "from_joint": t.effect.source_joint,
                         "statistic": t.statistic,
                         "dof": t.dof,
                         "p_value": t.p_value,

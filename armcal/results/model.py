@@ -131,6 +131,8 @@ class EffectResult(_Frozen):
     joint: int | None
     order: int | None
     parameters: list[EffectParameter]
+    from_joint: int | None = None  # joint_coupling: the driving joint (the spec's `from`)
+    form: str | None = None  # joint_compliance: masses | moments
 
 
 class Candidate(_Frozen):
@@ -138,6 +140,7 @@ class Candidate(_Frozen):
     id: str
     joint: int | None
     order: int | None
+    from_joint: int | None = None  # joint_coupling: the driving joint
     statistic: float
     dof: int
     p_value: float

@@ -58,9 +58,15 @@ def run_job(job: Job) -> dict:
     }
 
 
+def fleet_folder_name(spec: Path) -> str:
+    """A spec's subfolder of ``--out``, from its own path alone: <folder>-<stem>, e.g. examples/theodolite/spec.yaml
+    -> theodolite-spec (specs are often all called spec.yaml, one folder each)."""
+    return f"{spec.parent.name}-{spec.stem}"
+
+
 def jobs(specs: list[Path], out_dir: Path | None, force: bool, pdf: bool) -> list[Job]:
     """One job per spec, paths absolute (workers may run elsewhere); with ``out_dir`` each writes to
-    out_dir/<spec stem> (or <folder>-<stem> where stems repeat), else to the spec's default folder."""
+    out_dir/<folder>-<stem> (fleet_folder_name), else to the spec's default folder."""
     missing = [spec for spec in specs if not Path(spec).is_file()]
     if missing:
         raise UserError(f"{missing[0]}: no such spec file")
@@ -68,8 +74,7 @@ def jobs(specs: list[Path], out_dir: Path | None, force: bool, pdf: bool) -> lis
     if out_dir is None:
         folders = [default_out_dir(path) for path in paths]
     else:
-        stems = Counter(path.stem for path in paths)
-        folders = [Path(out_dir) / (p.stem if stems[p.stem] == 1 else f"{p.parent.name}-{p.stem}") for p in paths]
+        folders = [Path(out_dir) / fleet_folder_name(path) for path in paths]
     folders = [output_folder(folder.resolve()) for folder in folders]
     repeated = [folder for folder, count in Counter(folders).items() if count > 1]
     if repeated:

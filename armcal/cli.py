@@ -10,13 +10,59 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from typer.core import TyperArgument, TyperCommand
 
 from armcal import __version__
 from armcal.errors import UserError
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, help="Kinematic calibration of robot arms.")
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    rich_markup_mode=None,  # plain click-style help: no <bool> after every flag
+    context_settings={"help_option_names": ["-h", "--help"]},
+)
 
-SpecArg = Annotated[Path, typer.Argument(help="Calibration spec (YAML).", show_default=False)]
+
+class Command(TyperCommand):
+    """A command whose help names arguments as click does: SPEC, [SPEC], SPEC... (typer writes {spec}, <list[Path]>)."""
+
+    def collect_usage_pieces(self, ctx: typer.Context) -> list[str]:
+        arguments = [_argument_name(p) for p in self.get_params(ctx) if isinstance(p, TyperArgument)]
+        return [self.options_metavar, *arguments] if self.options_metavar else arguments
+
+    def format_options(self, ctx: typer.Context, formatter) -> None:
+        rows = {"Arguments": [], "Options": []}
+        for param in self.get_params(ctx):
+            record = param.get_help_record(ctx)
+            if record is not None and isinstance(param, TyperArgument):
+                rows["Arguments"].append((_argument_name(param), record[1]))
+            elif record is not None:
+                rows["Options"].append(record)
+        for title, records in rows.items():
+            if records:
+                with formatter.section(title):
+                    formatter.write_dl(records)
+
+
+def _argument_name(argument: TyperArgument) -> str:
+    name = (argument.metavar or argument.name.upper()) + ("..." if argument.nargs != 1 else "")
+    return name if argument.required else f"[{name}]"
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(__version__)
+        raise typer.Exit()
+
+
+@app.callback()
+def main(
+    version: Annotated[bool, typer.Option("--version", callback=_print_version, is_eager=True, help="Print armcal's version and exit.")] = False,
+) -> None:
+    """Kinematic calibration of robot arms."""
+
+
+SpecArg = Annotated[Path, typer.Argument(help="Calibration spec (YAML).", metavar="SPEC", show_default=False)]
 
 
 def user_errors(command: Callable) -> Callable:
@@ -33,21 +79,31 @@ def user_errors(command: Callable) -> Callable:
     return wrapper
 
 
-@app.command()
-@user_errors
-def validate(spec: SpecArg) -> None:
-    """Check a spec; list every problem with file, line, column and field."""
+@app.command(cls=Command)
+def validate(
+    specs: Annotated[list[Path], typer.Argument(help="Calibration specs (YAML).", metavar="SPEC", show_default=False)],
+) -> None:
+    """Check specs; list every problem with file, line, column and field (exit 1 if any spec has one)."""
     from armcal.spec import load_spec
     from armcal.spec.loader import missing_data_files
     from armcal.summary import spec_summary
 
-    loaded = load_spec(spec)
-    typer.echo(spec_summary(loaded))
-    for issue in missing_data_files(loaded):
-        typer.echo(f"warning: {issue}", err=True)
+    failed = False
+    for spec in specs:
+        try:
+            loaded = load_spec(spec)
+        except UserError as exc:
+            typer.echo(f"error: {exc}", err=True)
+            failed = True
+            continue
+        typer.echo(spec_summary(loaded))
+        for issue in missing_data_files(loaded):
+            typer.echo(f"warning: {issue}", err=True)
+    if failed:
+        raise typer.Exit(1)
 
 
-@app.command()
+@app.command(cls=Command)
 def schema(
     markdown: Annotated[bool, typer.Option("--markdown", help="The spec reference as Markdown (docs/spec-reference.md) instead.")] = False,
 ) -> None:
@@ -62,12 +118,12 @@ def schema(
     typer.echo(json.dumps(spec_json_schema(), indent=2))
 
 
-@app.command()
+@app.command(cls=Command)
 @user_errors
 def fk(
     spec: SpecArg,
-    q: Annotated[str, typer.Option(help="Joint values in the spec's units, comma separated.")],
-    target: Annotated[str | None, typer.Option(help="A robot target instead of the tool.")] = None,
+    q: Annotated[str, typer.Option(help="Joint values in the spec's units, comma separated.", metavar="VALUES")],
+    target: Annotated[str | None, typer.Option(help="A robot target instead of the tool.", metavar="NAME")] = None,
 ) -> None:
     """Forward kinematics of the spec's nominal robot at one configuration."""
     from armcal.summary import forward_kinematics_report
@@ -76,11 +132,11 @@ def fk(
     typer.echo(forward_kinematics_report(load_spec(spec), q, target))
 
 
-@app.command()
+@app.command(cls=Command)
 @user_errors
 def simulate(
     spec: SpecArg,
-    out: Annotated[Path, typer.Option("--out", help="Folder for the CSV files and truth.json.")],
+    out: Annotated[Path, typer.Option("--out", help="Folder for the CSV files and truth.json.", metavar="DIR")],
     force: Annotated[bool, typer.Option("--force", help="Replace existing data files and truth.json.")] = False,
 ) -> None:
     """Write the spec's calibration and validation data, measured on a simulated true robot."""
@@ -97,11 +153,11 @@ def simulate(
             typer.echo(f"  {name}: {len(data)} samples{why}")
 
 
-@app.command()
+@app.command(cls=Command)
 @user_errors
 def run(
     spec: SpecArg,
-    out: Annotated[Path | None, typer.Option("--out", help="Output folder (default: out/<spec stem>/ beside the spec).")] = None,
+    out: Annotated[Path | None, typer.Option("--out", help="Output folder (default: out/<spec stem>/ beside the spec).", metavar="DIR")] = None,
     no_pdf: Annotated[bool, typer.Option("--no-pdf", help="Skip the PDF certificate.")] = False,
     force: Annotated[bool, typer.Option("--force", help="Replace an existing certificate and its whole output set.")] = False,
 ) -> None:
@@ -114,10 +170,10 @@ def run(
     raise typer.Exit(outcome.exit_code)
 
 
-@app.command()
+@app.command(cls=Command)
 @user_errors
 def report(
-    results: Annotated[Path, typer.Argument(help="A results.json written by armcal run.", show_default=False)],
+    results: Annotated[Path, typer.Argument(help="A results.json written by armcal run, or the output folder that holds it.", metavar="RESULTS", show_default=False)],
     no_pdf: Annotated[bool, typer.Option("--no-pdf", help="Write only certificate.html.")] = False,
     force: Annotated[bool, typer.Option("--force", help="Replace the existing certificate.")] = False,
 ) -> None:
@@ -128,23 +184,23 @@ def report(
         typer.echo(f"wrote {path}")
 
 
-WorkersOption = Annotated[int | None, typer.Option("--workers", help="Local worker processes (default: one per core).", min=1)]
+WorkersOption = Annotated[int | None, typer.Option("--workers", help="Local worker processes (default: one per core).", metavar="N", min=1)]
 SchedulerOption = Annotated[
-    str | None, typer.Option("--scheduler", help="Run on a Dask distributed cluster: its scheduler's address, e.g. tcp://10.0.0.5:8786.")
+    str | None, typer.Option("--scheduler", help="Run on a Dask distributed cluster: its scheduler's address, e.g. tcp://10.0.0.5:8786.", metavar="ADDRESS")
 ]
 
 
-@app.command()
+@app.command(cls=Command)
 @user_errors
 def montecarlo(
     spec: SpecArg,
-    runs: Annotated[int, typer.Option("--runs", help="Simulated robots per point (Stone used 500).", min=2, max=100_000)] = 500,
+    runs: Annotated[int, typer.Option("--runs", help="Simulated robots per point (Stone used 500).", metavar="N", min=2, max=100_000)] = 500,
     sweep: Annotated[
         list[str] | None,
-        typer.Option("--sweep", help="Vary one input: noise_factor=1,2,5,10 | points_per_joint=20,40,60,80,100 | target_radius=30,40,50 | sigma_e=0.1,0.3,0.5 (spec units)."),
+        typer.Option("--sweep", help="Vary one input: noise_factor=1,2,5,10 | points_per_joint=20,40,60,80,100 | target_radius=30,40,50 | sigma_e=0.1,0.3,0.5 (spec units).", metavar="NAME=VALUES"),
     ] = None,
-    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the study's robots (default: the spec's simulate.seed).", min=0)] = None,
-    out: Annotated[Path | None, typer.Option("--out", help="Output folder (default: out/<spec stem>/montecarlo/ beside the spec).")] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the study's robots (default: the spec's simulate.seed).", metavar="N", min=0)] = None,
+    out: Annotated[Path | None, typer.Option("--out", help="Output folder (default: out/<spec stem>/montecarlo/ beside the spec).", metavar="DIR")] = None,
     workers: WorkersOption = None,
     scheduler: SchedulerOption = None,
 ) -> None:
@@ -169,11 +225,11 @@ def _progress_bar(what: str):
         yield lambda done, total: bar.update(task, completed=done, total=total)
 
 
-@app.command()
+@app.command(cls=Command)
 @user_errors
 def batch(
-    specs: Annotated[list[Path], typer.Argument(help="Calibration specs (YAML), one robot each.", show_default=False)],
-    out: Annotated[Path | None, typer.Option("--out", help="Folder for all outputs, one subfolder per spec (default: each spec's out/<stem>/).")] = None,
+    specs: Annotated[list[Path], typer.Argument(help="Calibration specs (YAML), one robot each.", metavar="SPEC", show_default=False)],
+    out: Annotated[Path | None, typer.Option("--out", help="Folder for all outputs, one subfolder per spec (default: each spec's out/<stem>/).", metavar="DIR")] = None,
     no_pdf: Annotated[bool, typer.Option("--no-pdf", help="Skip the PDF certificates.")] = False,
     force: Annotated[bool, typer.Option("--force", help="Replace existing certificates.")] = False,
     workers: WorkersOption = None,
@@ -194,13 +250,13 @@ def batch(
     raise typer.Exit(exit_code(outcomes))
 
 
-@app.command("import-ipa")
+@app.command("import-ipa", cls=Command)
 @user_errors
 def import_ipa(
     spec: SpecArg,
-    source: Annotated[Path, typer.Argument(help="An ipa-robot-accuracy measurements file (';', decimal commas).")],
-    out: Annotated[Path, typer.Option("--out", help="The contract CSV to write.")],
-    target: Annotated[str, typer.Option(help="The robot target the tracker measured.")] = "tmac",
+    source: Annotated[Path, typer.Argument(help="An ipa-robot-accuracy measurements file (';', decimal commas).", metavar="SERIES", show_default=False)],
+    out: Annotated[Path, typer.Option("--out", help="The contract CSV to write.", metavar="FILE")],
+    target: Annotated[str, typer.Option(help="The robot target the tracker measured.", metavar="NAME")] = "tmac",
     force: Annotated[bool, typer.Option("--force", help="Replace an existing data file.")] = False,
 ) -> None:
     """Convert a public UR10 laser-tracker series into a data file of the spec (its units)."""
@@ -221,8 +277,8 @@ def import_ipa(
     typer.echo(f"wrote {out}: {len(measurements)} samples")
 
 
-CalibratedArg = Annotated[Path, typer.Argument(help="A calibrated spec (a run's calibrated.yaml) or a run's output folder.", show_default=False)]
-OutFileOption = Annotated[Path, typer.Option("--out", help="The file to write.")]
+CalibratedArg = Annotated[Path, typer.Argument(help="A calibrated spec (a run's calibrated.yaml) or a run's output folder.", metavar="CALIBRATED", show_default=False)]
+OutFileOption = Annotated[Path, typer.Option("--out", help="The file to write.", metavar="FILE")]
 ForceOption = Annotated[bool, typer.Option("--force", help="Replace an existing file.")]
 
 
@@ -231,11 +287,11 @@ def _calibration_inputs(source: Path) -> list[Path]:
     return [source, source / "calibrated.yaml", source / "results.json"] if source.is_dir() else [source]
 
 
-@app.command()
+@app.command(cls=Command)
 @user_errors
 def export(
     source: CalibratedArg,
-    fmt: Annotated[str, typer.Option("--format", help="urdf, dh-table or json.")],
+    fmt: Annotated[str, typer.Option("--format", help="urdf, dh-table or json.", metavar="FORMAT")],
     out: OutFileOption,
     force: ForceOption = False,
 ) -> None:
@@ -251,11 +307,11 @@ def export(
         typer.echo(f"  not held by {fmt} (calibrated.yaml keeps them): {', '.join(exported.left_out)}")
 
 
-@app.command()
+@app.command(cls=Command)
 @user_errors
 def compensate(
     source: CalibratedArg,
-    targets: Annotated[Path, typer.Option("--targets", help="CSV of targets: name, x, y, z, rx, ry, rz (spec units), optional seeds q1..qn.")],
+    targets: Annotated[Path, typer.Option("--targets", help="CSV of targets: name, x, y, z, rx, ry, rz (spec units), optional seeds q1..qn.", metavar="TARGETS")],
     out: OutFileOption,
     force: ForceOption = False,
 ) -> None:
@@ -281,11 +337,11 @@ def compensate(
         typer.echo("  no corrected Cartesian targets: they need the nominal model, in a run's results.json (give the run's folder)")
 
 
-@app.command(name="compare")
+@app.command(name="compare", cls=Command)
 @user_errors
 def compare_calibrations(
-    old: Annotated[Path, typer.Argument(help="The earlier calibration: a results.json or a run's folder.", show_default=False)],
-    new: Annotated[Path, typer.Argument(help="The later calibration of the same robot.", show_default=False)],
+    old: Annotated[Path, typer.Argument(help="The earlier calibration: a results.json or a run's folder.", metavar="OLD", show_default=False)],
+    new: Annotated[Path, typer.Argument(help="The later calibration of the same robot.", metavar="NEW", show_default=False)],
 ) -> None:
     """Each parameter's change between two calibrations of one robot, in units of the combined uncertainty."""
     from armcal.results.compare import compare
@@ -294,7 +350,7 @@ def compare_calibrations(
     typer.echo(table, nl=False)
 
 
-@app.command()
+@app.command(cls=Command)
 def version() -> None:
     """Print armcal's version."""
     typer.echo(__version__)

@@ -1,13 +1,19 @@
 """Errors by audience.
 
 ``UserError`` and ``SpecError`` are mistakes a user can fix (the CLI prints them
-and exits 1); anything else is a bug in armcal and keeps its traceback.
+and exits 1); anything else is a bug in armcal and keeps its traceback. ``with_article``
+words their messages.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+
+
+def with_article(word: str) -> str:
+    """'an angle', 'a length': ``word`` with the indefinite article a message needs."""
+    return f"{'an' if word[:1].lower() in 'aeiou' else 'a'} {word}"
 
 
 class UserError(Exception):

@@ -163,9 +163,16 @@ def study_summary(study) -> str:
     return "\n".join(lines)
 
 
+def counted(count: int, noun: str) -> str:
+    """'1 spec', '2 specs'."""
+    return f"{count} {noun}{'' if count == 1 else 's'}"
+
+
 def batch_summary(outcomes: list[dict]) -> str:
     """What `armcal batch` prints: one line per spec."""
-    lines = [f"{len(outcomes)} specs: {sum(o['exit_code'] == 0 for o in outcomes)} converged"]
+    unexplained = sum(bool(o.get("unexplained")) for o in outcomes)
+    lines = [f"{counted(len(outcomes), 'spec')}: {sum(o['exit_code'] == 0 for o in outcomes)} converged"]
+    lines[0] += f", {unexplained} with residuals unexplained" if unexplained else ""
     for o in outcomes:
         if o["status"] in ("error", "internal_error"):
             lines.append(f"  {o['spec']}: {o['error']}" + (" (traceback in the fleet summary)" if o["status"] == "internal_error" else ""))

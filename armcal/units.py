@@ -1,13 +1,16 @@
 """Units at the boundary: spec and CSV values in their units, internally mm and rad.
 
 A quantity in a spec is a number (in the spec's default unit for its kind) or a
-string with an explicit unit such as ``"43.18 cm"`` or ``"2 arcsec"``.
+string with an explicit unit such as ``"43.18 cm"``, ``"2 arcsec"`` or ``"180°"`` (the degree
+sign is read as deg).
 """
 
 from __future__ import annotations
 
 import math
 import re
+
+from armcal.errors import with_article
 
 LENGTH_UNITS: dict[str, float] = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "um": 1e-3, "in": 25.4}
 ANGLE_UNITS: dict[str, float] = {
@@ -24,17 +27,19 @@ UNITS_BY_KIND: dict[str, dict[str, float]] = {
     "per_degC": {"1/degC": 1.0},  # thermal expansion
     "per_s": {"1/s": 1.0},  # drift with time
 }
+ANGLE_ALIASES = {"°": "deg"}  # 180° and 90 ° read as degrees
 INTERNAL_UNIT = {kind: next(iter(table)) if kind not in ("length", "angle") else {"length": "mm", "angle": "rad"}[kind] for kind, table in UNITS_BY_KIND.items()}
 
-_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z]+)?\s*$")
+_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z]+|°)?\s*$")
 
 
 def factor(kind: str, unit: str) -> float:
     """Multiplier from ``unit`` to the internal unit of ``kind``."""
     table = UNITS_BY_KIND[kind]
+    if kind == "angle":
+        unit = ANGLE_ALIASES.get(unit, unit)
     if unit not in table:
-        article = "an" if kind[0] in "aeiou" else "a"
-        raise ValueError(f"'{unit}' is not {article} {kind} unit; use one of {', '.join(table)}")
+        raise ValueError(f"'{unit}' is not {with_article(kind)} unit; use one of {', '.join(table)}")
     return table[unit]
 
 
@@ -45,16 +50,16 @@ SMALLEST = 1e-30  # below it a weight 1 / sigma overflows to infinity
 def to_internal(value: float | int | str, kind: str, default_unit: str) -> float:
     """Convert a spec quantity (number or 'number unit' string) to mm / rad / 1."""
     if isinstance(value, bool):
-        raise ValueError(f"expected a {kind}, got {value!r}")
+        raise ValueError(f"expected {with_article(kind)}, got {value!r}")
     if isinstance(value, (int, float)):
         number, unit = float(value), default_unit
     elif isinstance(value, str):
         match = _QUANTITY.match(value)
         if not match:
-            raise ValueError(f"expected a {kind} such as '12.5' or '12.5 {default_unit}', got {value!r}")
+            raise ValueError(f"expected {with_article(kind)} such as '12.5' or '12.5 {default_unit}', got {value!r}")
         number, unit = float(match.group(1)), match.group(2) or default_unit
     else:
-        raise ValueError(f"expected a {kind}, got {type(value).__name__}")
+        raise ValueError(f"expected {with_article(kind)}, got {type(value).__name__}")
     if not math.isfinite(number):
         raise ValueError(f"expected a finite {kind}, got {value!r}")
     internal = number * factor(kind, unit)

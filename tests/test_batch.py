@@ -6,9 +6,10 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, SPECS
 
-from armcal.batch import batch, exit_code
+from armcal.batch import batch, exit_code, jobs
+from armcal.summary import batch_summary
 from armcal.montecarlo import montecarlo
 
 FLEET = [ROOT / "examples" / "goswami_ballbar" / "spec.yaml", ROOT / "examples" / "theodolite" / "spec.yaml"]
@@ -47,7 +48,7 @@ def test_a_bad_spec_in_a_fleet_is_reported_and_the_others_go_on(tmp_path):
     broken = tmp_path / "broken.yaml"
     broken.write_text("armcal: 1\nrobot: {name: x\n")
     outcomes = batch([FLEET[0], broken], tmp_path / "out", pdf=False, workers=1)
-    assert outcomes[0]["status"] == "converged" and (tmp_path / "out" / "spec" / "results.json").exists()
+    assert outcomes[0]["status"] == "converged" and (tmp_path / "out" / "goswami_ballbar-spec" / "results.json").exists()
     assert outcomes[1]["status"] == "error" and "broken.yaml" in outcomes[1]["error"]
     assert exit_code(outcomes) == 1
 
@@ -58,6 +59,32 @@ def test_batch_command_line(tmp_path):
     assert result.returncode == 0, result.stderr
     assert "2 specs: 2 converged" in result.stdout
     assert {p.name for p in tmp_path.iterdir()} == {"goswami_ballbar-spec", "theodolite-spec", "fleet.json", "fleet.txt"}  # both specs are spec.yaml; the fleet summary
+    table = (tmp_path / "fleet.txt").read_text()
+    assert table.startswith("2 specs: 2 converged") and table in result.stdout
+    fleet = json.loads((tmp_path / "fleet.json").read_text())
+    assert fleet["specs"] == 2 and fleet["exit_code"] == 0
+    assert [o["out_dir"] for o in fleet["outcomes"]] == [str(tmp_path / "goswami_ballbar-spec"), str(tmp_path / "theodolite-spec")]
+
+
+def test_a_folder_name_depends_only_on_its_own_spec(tmp_path):
+    alone = jobs([FLEET[0]], tmp_path, False, False)
+    with_others = jobs([FLEET[1], SPECS / "puma560_dh.yaml", FLEET[0]], tmp_path, False, False)
+    assert alone[0].out_dir == with_others[2].out_dir == (tmp_path / "goswami_ballbar-spec").resolve()
+    assert with_others[1].out_dir == (tmp_path / "specs-puma560_dh").resolve()
+
+
+def _outcome(spec: str, unexplained: bool) -> dict:
+    """An outcome as run_job returns it for a converged spec."""
+    numbers = {"unit": "mm", "calibration_rms": [1.0, 0.1], "validation_rms": None, "noise_verdict": "consistent"}
+    return {"spec": spec, "status": "converged", "exit_code": 0, "robot": "arm (SN-1)", **numbers, "unexplained": unexplained, "out_dir": f"out/{spec}"}
+
+
+def test_the_fleet_summary_counts_in_words_and_flags_unexplained_residuals():
+    one = batch_summary([_outcome("a.yaml", False)]).splitlines()
+    assert one[0] == "1 spec: 1 converged" and "unexplained" not in one[1]
+    two = batch_summary([_outcome("a.yaml", False), _outcome("b.yaml", True)]).splitlines()
+    assert two[0] == "2 specs: 2 converged, 1 with residuals unexplained"
+    assert "unexplained" not in two[1] and two[2].startswith("  b.yaml: arm (SN-1) converged, residuals unexplained, ")
 
 
 def test_an_unreachable_scheduler_is_a_user_error(tmp_path):

@@ -319,8 +319,10 @@ def read_results(path: Path) -> dict:
         raise UserError(f"{path}: cannot read results (no such file)")
     try:
         raw = json.loads(decoded(data, path))
-    except (ValueError, RecursionError) as exc:
-        raise UserError(f"{path}: cannot read results ({exc})") from None
+    except ValueError:
+        raise UserError(f"{path}: expected the results.json that armcal run writes (or its output folder), but this file is not JSON") from None
+    except RecursionError:
+        raise UserError(f"{path}: cannot read results (nested too deeply)") from None
     try:
         return Results.model_validate(raw).model_dump(mode="json")
     except ValidationError as exc:
@@ -345,6 +347,8 @@ def read_plots(results_path: Path, names: list[str]) -> dict[str, str]:
 def rerender(results_path: Path, pdf: bool = True, force: bool = False) -> list[Path]:
     """``armcal report``: the certificate again, from results.json alone (and the plots beside it), into its output set."""
     results_path = Path(results_path)
+    if results_path.is_dir():
+        results_path = results_path / "results.json"
     folder = results_path.parent
     results = read_results(results_path)
     plots = read_plots(results_path, results["diagnosis"]["plots"])

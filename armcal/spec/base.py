@@ -34,7 +34,7 @@ def convert(value: Any, info: ValidationInfo, kind: str) -> float:
 
 def quantity_schema(*kinds: str) -> dict:
     """JSON Schema of a quantity: a number, or a string with a unit of one of ``kinds``."""
-    names = "|".join(u for kind in kinds for u in units.UNITS_BY_KIND[kind])
+    names = "|".join(u for kind in kinds for u in [*units.UNITS_BY_KIND[kind], *(units.ANGLE_ALIASES if kind == "angle" else ())])
     kind = " or ".join(kinds)
     return {
         "anyOf": [
@@ -104,11 +104,16 @@ def normalize_parameter(raw: Any, info: ValidationInfo, kind: str) -> Any:
     return {"value": convert(raw, info, kind)}
 
 
+PARAMETER_EXAMPLES = {"length": [431.8, "43.18 cm"], "angle": [-90, "1.5708 rad", "180°"], "scale": [1, 1.0005]}
+
+
 def parameter_schema(*kinds: str) -> dict:
-    """JSON Schema of a parameter: a quantity or {value, vary, min, max}."""
+    """JSON Schema of a parameter: a quantity or {value, vary, min, max}; examples of both forms for editors."""
     quantity = quantity_schema(*kinds)
     kind = " or ".join(kinds)
+    examples = [example for k in kinds for example in PARAMETER_EXAMPLES[k]]
     return {
+        "examples": [*examples, {"value": examples[0], "vary": False}],
         "anyOf": [
             quantity,
             {

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+from armcal.errors import with_article
 from armcal.spec.device import BallBar, SonicDigitizer, Theodolite, Tracker
 from armcal.spec.model import Spec
 from armcal.spec.procedure import CirclePoint, Poses, Shells
@@ -160,7 +161,7 @@ def _effects(spec: Spec) -> Iterator[Problem]:
             seen.setdefault(what, i)
             needed = DEVICES_OF_EFFECT.get(effect.type)
             if needed and spec.device.type not in needed:
-                yield (*loc, i, "type"), f"{effect.type} needs a {' or '.join(needed)} device, not {spec.device.type}"
+                yield (*loc, i, "type"), f"{effect.type} needs {with_article(' or '.join(needed))} device, not {spec.device.type}"
             joint = getattr(effect, "joint", None)
             if joint is not None and joint > spec.robot.dof:
                 yield (*loc, i, "joint"), f"joint {joint} does not exist: this robot has joints 1..{spec.robot.dof}"

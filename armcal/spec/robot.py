@@ -53,24 +53,29 @@ class Units(SpecModel):
 class Offset(SpecModel):
     """A translation x, y, z; left-out parts are fixed at 0."""
 
-    x: LengthParam = fixed(0.0)
-    y: LengthParam = fixed(0.0)
-    z: LengthParam = fixed(0.0)
+    x: LengthParam = Field(fixed(0.0), description="translation along the x axis of the frame it is given in")
+    y: LengthParam = Field(fixed(0.0), description="translation along the y axis of the frame it is given in")
+    z: LengthParam = Field(fixed(0.0), description="translation along the z axis of the frame it is given in")
 
 
 class Pose(Offset):
     """A rigid transform Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx); left-out parts are fixed at 0."""
 
-    rx: AngleParam = fixed(0.0)
-    ry: AngleParam = fixed(0.0)
-    rz: AngleParam = fixed(0.0)
+    rx: AngleParam = Field(fixed(0.0), description="rotation about x, applied last: Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx)")
+    ry: AngleParam = Field(fixed(0.0), description="rotation about y, after rz and before rx: Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx)")
+    rz: AngleParam = Field(fixed(0.0), description="rotation about z, applied first after the translation: Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx)")
 
 
 class Target(Offset):
     """A point (or, with any of rx/ry/rz, a frame) fixed on a link: sparker, sphere, reflector."""
 
     link: int = Field(ge=0, description="0 = base link, i = the link moved by joint i")
-    rx: AngleParam | None = Field(None, description="orientation (with ry, rz): the target is a frame, not a point")
+    x: LengthParam = Field(fixed(0.0), description="the point's x coordinate in the frame of its link")
+    y: LengthParam = Field(fixed(0.0), description="the point's y coordinate in the frame of its link")
+    z: LengthParam = Field(fixed(0.0), description="the point's z coordinate in the frame of its link")
+    rx: AngleParam | None = Field(
+        None, description="orientation (with ry, rz; as in a pose, Rot(z, rz) Rot(y, ry) Rot(x, rx)): the target is a frame, not a point"
+    )
     ry: AngleParam | None = Field(None, description="see rx")
     rz: AngleParam | None = Field(None, description="see rx")
 
@@ -111,10 +116,15 @@ class JointBase(SpecModel):
 class DHJoint(JointBase):
     """Denavit-Hartenberg joint, Stone (2.9); theta (revolute) or d (prismatic) is the offset at q = 0."""
 
-    theta: AngleParam
-    d: LengthParam
-    a: LengthParam
-    alpha: AngleParam
+    theta: AngleParam = Field(
+        description="rotation about z_(i-1) that turns x_(i-1) onto x_i, Rot(z, theta) in Stone (2.9) "
+        "A_i = Rot(z, theta) Trans(0, 0, d) Trans(a, 0, 0) Rot(x, alpha); a revolute joint adds its reading q"
+    )
+    d: LengthParam = Field(
+        description="offset along z_(i-1) from x_(i-1) to the common normal x_i, Trans(0, 0, d) in Stone (2.9); a prismatic joint adds its reading q"
+    )
+    a: LengthParam = Field(description="link length: distance along the common normal x_i from axis z_(i-1) to axis z_i, Trans(a, 0, 0) in Stone (2.9)")
+    alpha: AngleParam = Field(description="link twist: angle about x_i from axis z_(i-1) to axis z_i, Rot(x, alpha) in Stone (2.9)")
     beta: AngleParam | None = Field(
         None,
         description="Hayati's tilt Rot(y, beta) after Rot(x, alpha), for an axis parallel to the next one; "
@@ -125,25 +135,30 @@ class DHJoint(JointBase):
 class MDHJoint(DHJoint):
     """Hayati's modified DH joint: (2.9) followed by Rot(y, beta); use d fixed at 0 for near-parallel axes."""
 
-    beta: AngleParam = Field(fixed(0.0), description="Hayati's tilt Rot(y, beta) after Rot(x, alpha)")
+    beta: AngleParam = Field(fixed(0.0), description="Hayati's tilt: rotation about y_i after Rot(x, alpha), (2.9) then Rot(y, beta)")
 
 
 class SModelJoint(JointBase):
     """S-Model joint, Stone (3.2); beta (revolute) or d (prismatic) is the offset at q = 0."""
 
-    beta: AngleParam
-    d: LengthParam
-    a: LengthParam
-    alpha: AngleParam
-    gamma: AngleParam = fixed(0.0)
-    b: LengthParam = fixed(0.0)
+    beta: AngleParam = Field(
+        description="rotation about z_(i-1), Rot(z, beta) in Stone (3.2) "
+        "B_i = Rot(z, beta) Trans(0, 0, d) Trans(a, 0, 0) Rot(x, alpha) Rot(z, gamma) Trans(0, 0, b); a revolute joint adds its reading q"
+    )
+    d: LengthParam = Field(description="translation along z_(i-1), Trans(0, 0, d) in Stone (3.2); a prismatic joint adds its reading q")
+    a: LengthParam = Field(description="translation along the new x axis, Trans(a, 0, 0) in Stone (3.2): distance between the joint axes")
+    alpha: AngleParam = Field(description="twist about the new x axis, Rot(x, alpha) in Stone (3.2): angle between the joint axes")
+    gamma: AngleParam = Field(fixed(0.0), description="rotation about the new z axis, Rot(z, gamma) in Stone (3.2): places the link frame's x axis freely")
+    b: LengthParam = Field(fixed(0.0), description="translation along the new z axis, Trans(0, 0, b) in Stone (3.2): places the link frame's origin freely")
 
 
 class SixParameterJoint(JointBase):
     """Goswami's joint with encoder offset and scale, theta = theta0 + k q (2)."""
 
-    theta0: Annotated[Parameter, WithJsonSchema(parameter_schema("angle", "length"))] = fixed(0.0)
-    k: ScaleParam = fixed(1.0)
+    theta0: Annotated[Parameter, WithJsonSchema(parameter_schema("angle", "length"))] = Field(
+        fixed(0.0), description="encoder offset: the joint value theta (angle, or length for a prismatic joint) at reading q = 0, theta = theta0 + k q (2)"
+    )
+    k: ScaleParam = Field(fixed(1.0), description="encoder scale: joint value per unit of reading, theta = theta0 + k q (2); 1 for an exact encoder")
 
     @field_validator("theta0", mode="before")
     @classmethod
@@ -154,9 +169,12 @@ class SixParameterJoint(JointBase):
 class SixParameterLink(Offset):
     """Goswami's link transform Trans(x, y, z) Rot(z, alpha) Rot(y, beta) Rot(x, gamma) (3)."""
 
-    alpha: AngleParam = fixed(0.0)
-    beta: AngleParam = fixed(0.0)
-    gamma: AngleParam = fixed(0.0)
+    x: LengthParam = Field(fixed(0.0), description="translation along x of the preceding frame, Trans(x, y, z) in (3)")
+    y: LengthParam = Field(fixed(0.0), description="translation along y of the preceding frame, Trans(x, y, z) in (3)")
+    z: LengthParam = Field(fixed(0.0), description="translation along z of the preceding frame, Trans(x, y, z) in (3)")
+    alpha: AngleParam = Field(fixed(0.0), description="first ZYX Euler angle: rotation about z after the translation, Rot(z, alpha) in (3)")
+    beta: AngleParam = Field(fixed(0.0), description="second ZYX Euler angle: rotation about the new y, Rot(y, beta) in (3)")
+    gamma: AngleParam = Field(fixed(0.0), description="third ZYX Euler angle: rotation about the new x, Rot(x, gamma) in (3); the next joint turns about the resulting z")
 
 
 class RobotBase(SpecModel):

@@ -6,13 +6,14 @@ from functools import lru_cache
 
 from armcal.spec.model import Spec
 
+SCHEMA_ID = "urn:armcal:spec:1"  # names the spec format (armcal: 1); a URN, as the project publishes no URL
+
 
 def spec_json_schema() -> dict:
     """The JSON Schema (draft 2020-12) of a spec as written by a user."""
     schema = Spec.model_json_schema(mode="validation")
-    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
-    schema["title"] = "armcal calibration spec"
-    return schema
+    schema.pop("title", None)
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema", "$id": SCHEMA_ID, "title": "armcal calibration spec", **schema}
 
 
 @lru_cache(maxsize=1)

@@ -48,8 +48,7 @@ def export(path: Path, fmt: str) -> Export:
     effects = tuple(f"{e.type}" + (f" (joint {e.joint})" if getattr(e, "joint", None) else "") for e in spec.effects)
     if fmt == "json":
         return Export(parameters_json(loaded, results), ())
-    kinematics = compile_robot(spec.robot)
     if fmt == "urdf":
-        text, scaled = urdf(spec, kinematics, effects)
+        text, scaled = urdf(spec, compile_robot(spec.robot), effects)
         return Export(text, effects + scaled)
     return Export(dh_table(loaded, effects), effects)

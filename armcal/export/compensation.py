@@ -70,7 +70,7 @@ def _deviation(kinematics: KinematicModel, effects: EffectSet):
     function = effects.joint_deviation_function(kinematics)
     x = np.zeros(extras_size(kinematics.dof))
     p, pe = kinematics.parameters.nominal, effects.values()
-    return lambda Q: np.array([np.array(function(q, x, p, pe)[0]).ravel() for q in Q]).reshape(Q.shape)
+    return lambda Q: np.array(function.map(len(Q))(Q.T, x, p, pe)[0]).T.reshape(Q.shape)
 
 
 def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targets_name: str) -> tuple[str, list[str], list[str]]:

@@ -4,7 +4,7 @@ then Hayati's Rot(y, beta) where the chain has it), with the base and tool trans
 from __future__ import annotations
 
 from armcal.errors import UserError
-from armcal.kinematics.compiler import compile_robot
+from armcal.kinematics.params import parameter_set
 from armcal.spec import LoadedSpec
 from armcal.units import from_internal
 
@@ -17,7 +17,7 @@ def dh_table(loaded: LoadedSpec, effects: tuple[str, ...]) -> str:
     robot = loaded.spec.robot
     if robot.convention not in ("dh", "mdh"):
         raise UserError(f"{loaded.path}: the chain is {robot.convention}; a DH table cannot hold it (export urdf or json)")
-    parameters = compile_robot(robot).parameters
+    parameters = parameter_set(robot)
     value = {e.name: e.nominal for e in parameters.entries}
     shown = lambda name, kind: f"{from_internal(value.get(name, 0.0), kind, robot.units.of(kind)):.9g}"  # noqa: E731
     unit = lambda kind: robot.units.of(kind)  # noqa: E731

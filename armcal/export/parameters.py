@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 
-from armcal.kinematics.compiler import compile_robot
+from armcal.kinematics.params import parameter_set
 from armcal.spec import LoadedSpec
 from armcal.units import from_internal
 
@@ -15,7 +15,7 @@ def parameters_json(loaded: LoadedSpec, results: dict | None) -> str:
     spec = loaded.spec
     std = {p["name"]: p["std"] for p in results["parameters"]} if results else {}
     rows = []
-    for entry in compile_robot(spec.robot).parameters.entries:
+    for entry in parameter_set(spec.robot).entries:
         unit = spec.robot.units.of(entry.kind)
         rows.append({
             "name": entry.name,

@@ -312,6 +312,11 @@ def write_files(folder: Path, files: dict[str, bytes | str]) -> list[Path]:
     return written
 
 
+def results_file(path: Path) -> Path:
+    """The results.json a user names: the file itself, or the one in a run's output folder."""
+    return path / "results.json" if path.is_dir() else path
+
+
 def read_results(path: Path) -> dict:
     """A results.json as armcal writes it (checked against the Results model), else one UserError naming the file."""
     data = read_regular(path, RESULTS_LIMIT, path)
@@ -346,9 +351,7 @@ def read_plots(results_path: Path, names: list[str]) -> dict[str, str]:
 
 def rerender(results_path: Path, pdf: bool = True, force: bool = False) -> list[Path]:
     """``armcal report``: the certificate again, from results.json alone (and the plots beside it), into its output set."""
-    results_path = Path(results_path)
-    if results_path.is_dir():
-        results_path = results_path / "results.json"
+    results_path = results_file(Path(results_path))
     folder = results_path.parent
     results = read_results(results_path)
     plots = read_plots(results_path, results["diagnosis"]["plots"])

@@ -12,19 +12,15 @@ import math
 from pathlib import Path
 
 from armcal.errors import UserError
-from armcal.report.render import read_results
+from armcal.report.render import read_results, results_file
 
 Z_SIGNIFICANT = 2.576  # two-sided 1 % of the normal distribution
-
-
-def _results(path: Path) -> dict:
-    return read_results(path / "results.json" if path.is_dir() else path)
 
 
 def compare(old_path: Path, new_path: Path) -> tuple[str, int]:
     """A plain-text table of the parameters of two results (a results.json or a run's folder) and the number of
     significant changes."""
-    old, new = _results(old_path), _results(new_path)
+    old, new = read_results(results_file(old_path)), read_results(results_file(new_path))
     if old["robot"]["serial"] != new["robot"]["serial"]:
         raise UserError(f"{new_path}: serial {new['robot']['serial']} is not {old['robot']['serial']} of {old_path}: compare calibrations of one robot")
     before = {p["name"]: p for p in old["parameters"]}

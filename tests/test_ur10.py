@@ -2,6 +2,7 @@
 
 import csv
 import math
+from html import unescape
 import subprocess
 import sys
 
@@ -49,6 +50,8 @@ def test_fit_series_c_validate_on_series_b(tmp_path):
     assert results.diagnosis.rounds  # the diagnosis ran; what it found is in docs/tutorials/ur10.md
     assert results.diagnosis.unexplained  # the residuals stay far above a 0.03 mm tracker noise
     _check_noise(results, tmp_path / "out")
+    html = unescape((tmp_path / "out" / "certificate.html").read_text())
+    assert "torque of the robot's declared masses (robot.masses)" in html and "assumed" not in results.diagnosis.evidence["torque_masses"]
 
 
 def _check_noise(results, out) -> None:

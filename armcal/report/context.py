@@ -11,7 +11,7 @@ from armcal.units import ANGLE_UNITS, factor
 PLOT_TITLES = {
     "residual_histogram.svg": "Residuals after calibration, with the Gaussian of the noise model",
     "residual_vs_joint.svg": "Residual magnitude against each joint's reading (before and after the diagnosis)",
-    "residual_vs_torque.svg": "Residual magnitude against the gravity torque about each joint, from assumed masses",
+    "residual_vs_torque.svg": "Residual magnitude against the gravity torque about each joint",
     "residual_per_key.svg": "Residual RMS per target, pivot pairing or station, design model and calibrated",
     "residual_vs_longitude.svg": "Residual magnitude along the longitudes of the hemispherical shells (Goswami Fig. 3)",
     "residual_vs_t.svg": "Residual magnitude against time",
@@ -193,7 +193,7 @@ def _plots(results: dict, svgs: dict[str, str]) -> list[dict]:
         if name in svgs:
             data = base64.b64encode(svgs[name].encode("utf-8")).decode("ascii")
             size = "" if name in WIDE_PLOTS else "small"
-            title = PLOT_TITLES.get(name, name) + (f" ({masses})" if name == "residual_vs_torque.svg" and masses else "")
+            title = PLOT_TITLES.get(name, name) + (f", torque of {masses}" if name == "residual_vs_torque.svg" and masses else "")
             plots.append({"title": title, "source": f"data:image/svg+xml;base64,{data}", "size": size})
     return plots
 

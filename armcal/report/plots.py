@@ -101,7 +101,7 @@ def draw_plots(evidence: dict) -> dict[str, str]:
         "residual_per_key.svg": per_key(evidence),
     }
     if evidence["gravity_torque"]:
-        torque = ["gravity torque (N m), default masses"] * len(evidence["gravity_torque"])
+        torque = ["gravity torque (N m)"] * len(evidence["gravity_torque"])  # from the masses the caption names
         plots["residual_vs_torque.svg"] = against(evidence, "gravity_torque", torque)
     for name, label in (("t", "time (s)"), ("temperature", "temperature (degC)"), ("longitude", "longitude on the shell (deg)")):
         if name in evidence:

@@ -2,9 +2,9 @@
 
 import csv
 import math
-from html import unescape
 import subprocess
 import sys
+from html import unescape
 
 import pytest
 from conftest import ROOT, SHARED_DATA, SPECS

@@ -291,7 +291,7 @@ def _calibration_inputs(source: Path) -> list[Path]:
 @user_errors
 def export(
     source: CalibratedArg,
-    fmt: Annotated[str, typer.Option("--format", help="urdf, dh-table or json.", metavar="FORMAT")],
+    fmt: Annotated[str, typer.Option("--format", help="urdf, ur-calibration, dh-table or json.", metavar="FORMAT")],
     out: OutFileOption,
     force: ForceOption = False,
 ) -> None:

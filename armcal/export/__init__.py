@@ -14,12 +14,13 @@ from pathlib import Path
 from armcal.errors import UserError
 from armcal.export.dh_table import dh_table
 from armcal.export.parameters import parameters_json
+from armcal.export.ur_calibration import ur_calibration
 from armcal.export.urdf import urdf
 from armcal.kinematics.compiler import compile_robot
 from armcal.report.render import read_results
 from armcal.spec import LoadedSpec, load_spec
 
-FORMATS = ("urdf", "dh-table", "json")
+FORMATS = ("urdf", "ur-calibration", "dh-table", "json")
 
 
 @dataclass(frozen=True)
@@ -51,4 +52,6 @@ def export(path: Path, fmt: str) -> Export:
     if fmt == "urdf":
         text, scaled = urdf(spec, compile_robot(spec.robot), effects)
         return Export(text, effects + scaled)
+    if fmt == "ur-calibration":
+        return Export(*ur_calibration(loaded, effects))
     return Export(dh_table(loaded, effects), effects)

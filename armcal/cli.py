@@ -340,8 +340,8 @@ def compensate(
 @app.command(name="compare", cls=Command)
 @user_errors
 def compare_calibrations(
-    old: Annotated[Path, typer.Argument(help="The earlier calibration: a results.json or a run's folder.", metavar="OLD", show_default=False)],
-    new: Annotated[Path, typer.Argument(help="The later calibration of the same robot.", metavar="NEW", show_default=False)],
+    old: Annotated[str, typer.Argument(help="The earlier calibration: a results.json, a run's folder, a calibrated spec, or SPEC@REV (a spec at a git revision).", metavar="OLD", show_default=False)],
+    new: Annotated[str, typer.Argument(help="The later calibration of the same robot, in any of those forms.", metavar="NEW", show_default=False)],
 ) -> None:
     """Each parameter's change between two calibrations of one robot, in units of the combined uncertainty."""
     from armcal.results.compare import compare

@@ -58,8 +58,8 @@ def yaml_path(name: str, spec: Spec) -> list:
     return [*device[first], field]
 
 
-def _set(root: CommentedMap, path: list, value: float, held: bool = False) -> None:
-    """Write a value at ``path``; ``held``: as {value, vary: false}."""
+def _set(root: CommentedMap, path: list, value: float, held: bool = False, std: float | None = None) -> None:
+    """Write a value at ``path``; ``held``: as {value, vary: false}; with its standard uncertainty: {value, std}."""
     node = root
     for part in path[:-1]:
         node = node[part]
@@ -68,12 +68,15 @@ def _set(root: CommentedMap, path: list, value: float, held: bool = False) -> No
     if isinstance(current, CommentedMap) and current.anchor.value is not None:  # shared by a YAML alias: write this one only
         current = _unshared(current)
         node[last] = current
+    extra = [("vary", False)] if held else []
+    extra += [("std", std)] if std is not None else []
     if isinstance(current, dict):
         current["value"] = value
-        if held:
-            current["vary"] = False
-    elif held:
-        entry = CommentedMap([("value", value), ("vary", False)])
+        current.update(extra)
+        if std is None:
+            current.pop("std", None)  # an earlier calibration's: not this value's
+    elif extra:
+        entry = CommentedMap([("value", value), *extra])
         entry.fa.set_flow_style()
         node[last] = entry
     else:
@@ -91,14 +94,14 @@ def _unshared(mapping: CommentedMap) -> CommentedMap:
 def calibrated_yaml(
     spec_text: str,
     spec: Spec,
-    identified: dict[str, tuple[float, str, bool]],
+    identified: dict[str, tuple[float, str, bool, float | None]],  # internal value, kind, held, std in the spec's unit
     source: Path,
     out_dir: Path,
     note: str,
     added_effects: list = (),
     noise: dict[str, tuple[float, str]] | None = None,
 ) -> str:
-    """The spec text with ``identified`` {name: (internal value, kind, held)} written in, the effects
+    """The spec text with ``identified`` {name: (internal value, kind, held, std)} written in, the effects
     the diagnosis added [(EffectSpec, {field: (internal value, kind)})] appended to ``effects:``, and the noise
     estimated from the data {device field: (internal sigma, kind)} written as the device's sigmas (no longer estimated)."""
     yaml = YAML(typ="rt")
@@ -106,8 +109,8 @@ def calibrated_yaml(
     yaml.width = 4096  # keep flow-style rows on one line as the user wrote them
     root = yaml.load(spec_text)
     shown = lambda value, kind: float(f"{from_internal(value, kind, spec.robot.units.of(kind)):.{SIGNIFICANT}g}")  # noqa: E731
-    for name, (value, kind, held) in identified.items():
-        _set(root, yaml_path(name, spec), shown(value, kind), held)
+    for name, (value, kind, held, std) in identified.items():
+        _set(root, yaml_path(name, spec), shown(value, kind), held, None if std is None else float(f"{std:.3g}"))
     if added_effects:
         effects = root.setdefault("effects", CommentedSeq())
         for effect, values in added_effects:
@@ -154,12 +157,13 @@ def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
     base = set(calibrated.identified.least_squares.identifiability.base)
     reported = {r.name for r in results.parameters} - added_names
     identified, held = {}, []
+    std = {r.name: r.std for r in results.parameters}  # the spec's units, as results.json and the certificate give them
     for entry, value in zip(problem.parameters.entries, theta):
         if entry.name not in reported:
             continue
         redundant = entry.role != "effect" and entry.free and entry.name not in base and calibrated.identified.features is None
         if value != entry.nominal or entry.name in base or redundant:
-            identified[entry.name] = (float(value), entry.kind, redundant)
+            identified[entry.name] = (float(value), entry.kind, redundant, None if redundant else std[entry.name])
         held += [entry.name] if redundant else []
     new_effects = [(e, {p.name.rsplit(".", 1)[1]: (float(theta[index(p.name)]), p.kind) for p in e.parameters()}) for e in added]
     noise = _plain_sigmas(loaded.spec, calibrated.noise.spec_values()) if calibrated.noise else None

@@ -1,44 +1,141 @@
 """Recalibration over time: two calibrations of one robot, parameter by parameter.
 
-Each parameter's change d = new - old is put in units of its combined standard uncertainty
-u = sqrt(u_old^2 + u_new^2) (the two calibrations independent: separate campaigns), z = d / u,
-and flagged significant where |z| > Z_SIGNIFICANT (two-sided 1 %). A parameter one side holds
-(no uncertainty) is compared by its change alone.
+A calibration is a run's results.json (or its folder), a calibrated spec (a run's calibrated.yaml,
+whose identified values carry their ``std``), or such a spec at a git revision, ``PATH@REV``
+(armcal/gitrepo.py reads the repository as files). Each parameter's change d = new - old is put in
+units of its combined standard uncertainty u = sqrt(u_old^2 + u_new^2) (the two calibrations
+independent: separate campaigns), z = d / u, with its two-sided p-value; the changes are flagged
+significant by Holm's step-down test at a family-wise ALPHA over every parameter compared, so
+that among forty unchanged parameters none is flagged by chance more often than ALPHA of the
+time. A parameter neither calibration gives an uncertainty for is compared by its change alone.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
+import re
+from dataclasses import dataclass, replace
 from pathlib import Path
 
+from scipy.stats import norm
+
 from armcal.errors import UserError
+from armcal.fileio import INPUT_LIMITS
+from armcal.gitrepo import file_at_revision
+from armcal.kinematics.params import parameter_set
 from armcal.report.render import read_results, results_file
+from armcal.results.calibrated import yaml_path
+from armcal.spec import LoadedSpec, load_spec
+from armcal.spec.loader import spec_from_bytes
+from armcal.units import from_internal
 
-Z_SIGNIFICANT = 2.576  # two-sided 1 % of the normal distribution
+ALPHA = 0.01  # family-wise probability of flagging any unchanged parameter
+_CALIBRATED_BY = re.compile(r"Calibrated by armcal \S+ on (?P<created>\S+) .*?, run (?P<run>\w+)")
 
 
-def compare(old_path: Path, new_path: Path) -> tuple[str, int]:
-    """A plain-text table of the parameters of two results (a results.json or a run's folder) and the number of
-    significant changes."""
-    old, new = read_results(results_file(old_path)), read_results(results_file(new_path))
-    if old["robot"]["serial"] != new["robot"]["serial"]:
-        raise UserError(f"{new_path}: serial {new['robot']['serial']} is not {old['robot']['serial']} of {old_path}: compare calibrations of one robot")
-    before = {p["name"]: p for p in old["parameters"]}
-    lines = [
-        f"{new['robot']['name']} ({new['robot']['serial']}): {old['created'][:10]} (run {old.get('run_id')}) -> {new['created'][:10]} (run {new.get('run_id')})",
-        f"{'parameter':32} {'old':>14} {'new':>14} {'change':>12} {'unit':8} {'z':>7}",
-    ]
-    significant = 0
-    for p in new["parameters"]:
+@dataclass(frozen=True)
+class Calibration:
+    """What a comparison needs of one calibration: whose, when, and its parameters as results.json rows."""
+
+    label: str
+    name: str
+    serial: str
+    created: str | None
+    run_id: str | None
+    parameters: list[dict]  # {name, unit, value, std, free}, values in the spec's units
+
+
+@dataclass(frozen=True)
+class Change:
+    name: str
+    unit: str
+    old: float
+    new: float
+    z: float | None  # None where neither calibration gives an uncertainty
+    significant: bool = False
+
+
+def changes(old: list[dict], new: list[dict]) -> list[Change]:
+    """Every parameter either calibration left free, with its change in combined standard uncertainties, the
+    significant ones flagged by Holm's step-down test at family-wise ALPHA."""
+    before = {p["name"]: p for p in old}
+    rows = []
+    for p in new:
         q = before.get(p["name"])
         if q is None or not (p["free"] or q["free"]):
             continue
-        change = p["value"] - q["value"]
         spread = math.hypot(p["std"] or 0.0, q["std"] or 0.0)
-        z = change / spread if spread > 0 else None
-        flag = z is not None and abs(z) > Z_SIGNIFICANT
-        significant += flag
-        shown_z = f"{z:7.2f}" if z is not None else "      -"
-        lines.append(f"{p['name']:32} {q['value']:14.6g} {p['value']:14.6g} {change:12.4g} {p['unit']:8} {shown_z}" + ("  significant" if flag else ""))
-    lines.append(f"{significant} significant change(s) (|z| > {Z_SIGNIFICANT}: two-sided 1 %, z = change / sqrt(u_old^2 + u_new^2))")
+        rows.append(Change(p["name"], p["unit"], q["value"], p["value"], (p["value"] - q["value"]) / spread if spread > 0 else None))
+    tested = sorted((i for i, c in enumerate(rows) if c.z is not None), key=lambda i: -abs(rows[i].z))
+    for rank, i in enumerate(tested):
+        if 2.0 * norm.sf(abs(rows[i].z)) > ALPHA / (len(tested) - rank):
+            break
+        rows[i] = replace(rows[i], significant=True)
+    return rows
+
+
+def calibration(argument: str) -> Calibration:
+    """The calibration an argument names: a results.json or a run's folder, a calibrated spec, or ``SPEC@REV``."""
+    path = Path(argument)
+    if path.is_dir() or path.suffix == ".json":
+        results = read_results(results_file(path))
+        robot = results["robot"]
+        return Calibration(argument, robot["name"], robot["serial"], results["created"], results.get("run_id"), results["parameters"])
+    if not path.exists() and "@" in argument:
+        file, _, revision = argument.rpartition("@")
+        raw = file_at_revision(Path(file), revision)
+        if len(raw) > INPUT_LIMITS["spec"]:
+            raise UserError(f"{argument}: larger than a spec may be ({INPUT_LIMITS['spec'] // 1024} KiB)")
+        return _from_spec(spec_from_bytes(raw, Path(argument), hashlib.sha256(raw).hexdigest()), argument)
+    return _from_spec(load_spec(path), argument)
+
+
+def _from_spec(loaded: LoadedSpec, label: str) -> Calibration:
+    """A spec's chain parameters (values and ``std`` as written), dated by calibrated.yaml's header if it has one."""
+    spec = loaded.spec
+    rows = []
+    for entry in parameter_set(spec.robot).entries:
+        node = spec
+        for key in yaml_path(entry.name, spec):
+            node = node[key] if isinstance(key, int) or isinstance(node, dict) else getattr(node, key, None)
+            if node is None:
+                break
+        unit = spec.robot.units.of(entry.kind)
+        std = getattr(node, "std", None)
+        rows.append({
+            "name": entry.name,
+            "unit": unit,
+            "value": from_internal(entry.nominal, entry.kind, unit),
+            "std": None if std is None else from_internal(std, entry.kind, unit),
+            "free": entry.free,
+        })
+    header = _CALIBRATED_BY.search(loaded.text)
+    created, run = (header["created"], header["run"]) if header else (None, None)
+    return Calibration(label, spec.robot.name, spec.robot.serial, created, run, rows)
+
+
+def _when(c: Calibration) -> str:
+    return f"{c.label}, " + (f"{c.created[:10]} (run {c.run_id})" if c.created else "not dated (no calibrated.yaml header)")
+
+
+def compare(old_argument: str, new_argument: str) -> tuple[str, int]:
+    """A plain-text table of the parameters of two calibrations of one robot and the number of significant changes."""
+    old, new = calibration(old_argument), calibration(new_argument)
+    if old.serial != new.serial:
+        raise UserError(f"{new.label}: serial {new.serial} is not {old.serial} of {old.label}: compare calibrations of one robot")
+    lines = [
+        f"{new.name} ({new.serial}): {_when(old)} -> {_when(new)}",
+        f"{'parameter':32} {'old':>14} {'new':>14} {'change':>12} {'unit':8} {'z':>7}",
+    ]
+    found = changes(old.parameters, new.parameters)
+    for c in found:
+        shown_z = f"{c.z:7.2f}" if c.z is not None else "      -"
+        lines.append(f"{c.name:32} {c.old:14.6g} {c.new:14.6g} {c.new - c.old:12.4g} {c.unit:8} {shown_z}" + ("  significant" if c.significant else ""))
+    significant = sum(c.significant for c in found)
+    tested = sum(c.z is not None for c in found)
+    lines.append(
+        f"{significant} significant change(s) among {tested} parameters with uncertainties (z = change / sqrt(u_old^2 + u_new^2); "
+        f"Holm's test, family-wise {ALPHA * 100:g} %: an unchanged robot shows one by chance in {1 / ALPHA:.0f} comparisons)"
+    )
     return "\n".join(lines) + "\n", significant

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationInfo, WithJsonSchema, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo, WithJsonSchema, model_validator
 
 from armcal import units
 
@@ -67,12 +67,14 @@ Number = Annotated[float, BeforeValidator(_finite)]
 
 
 class Parameter(SpecModel):
-    """A model parameter: its value (internal units), whether the fit may vary it, bounds."""
+    """A model parameter: its value (internal units), whether the fit may vary it, bounds, and the standard
+    uncertainty of the calibration that wrote the value (calibrated.yaml; read by ``armcal compare``, never by a fit)."""
 
     value: float
     vary: bool = True
     min: float | None = None
     max: float | None = None
+    std: float | None = Field(None, ge=0.0)
 
     @model_validator(mode="after")
     def _bounds(self) -> "Parameter":
@@ -94,7 +96,7 @@ def normalize_parameter(raw: Any, info: ValidationInfo, kind: str) -> Any:
         return raw
     if isinstance(raw, dict):
         out = dict(raw)
-        for key in ("value", "min", "max"):
+        for key in ("value", "min", "max", "std"):
             if out.get(key) is not None:
                 try:
                     out[key] = convert(out[key], info, kind)
@@ -118,12 +120,13 @@ def parameter_schema(*kinds: str) -> dict:
             quantity,
             {
                 "type": "object",
-                "properties": {"value": quantity, "vary": {"type": "boolean"}, "min": quantity, "max": quantity},
+                "properties": {"value": quantity, "vary": {"type": "boolean"}, "min": quantity, "max": quantity, "std": quantity},
                 "required": ["value"],
                 "additionalProperties": False,
             },
         ],
-        "description": f"{kind} parameter: a value (free in the fit) or {{value, vary, min, max}}",
+        "description": f"{kind} parameter: a value (free in the fit) or {{value, vary, min, max, std}} "
+        "(std: the standard uncertainty a calibration wrote, read by armcal compare)",
     }
 
 

@@ -1,0 +1,101 @@
+"""armcal compare on two real calibrations of one simulated robot (tests/independent_sim.py, not armcal's
+simulator): the same PUMA measured twice by a tracker, the upper arm (j2.a) 5 combined standard uncertainties
+longer in the second campaign, other poses and other noise. Only j2.a is flagged, from the run folders, from the
+calibrated specs (whose std equals results.json's) and from one calibrated spec at two git revisions."""
+
+import json
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+from conftest import armcal_cli
+from independent_sim import COUNTS, TRACKER, readings, sample_configurations, spec_text, true_geometry, write_csv
+
+from armcal.pipeline import run
+
+ROBOT, DEVICE = "puma560", "tracker"
+
+
+def _campaign(folder, geom, seed):
+    """A clean tracker campaign of the robot ``geom`` with poses and noise from ``seed``."""
+    rng = np.random.default_rng(seed)
+    folder.mkdir(parents=True)
+    (folder / "spec.yaml").write_text(spec_text(ROBOT, DEVICE))
+    for name, count in zip(("calibration.csv", "validation.csv"), COUNTS[DEVICE]):
+        q = sample_configurations(ROBOT, count, rng)
+        keys = [("smr",)] * count
+        y = readings(geom, DEVICE, np.deg2rad(q), keys)
+        write_csv(folder / name, DEVICE, q, keys, y + rng.normal(0, TRACKER["noise"], y.shape))
+    run(folder / "spec.yaml", folder / "out", pdf=False)
+    return folder / "out"
+
+
+def _flagged(stdout: str) -> list[str]:
+    return [line.split()[0] for line in stdout.splitlines() if line.endswith("significant")]
+
+
+@pytest.fixture(scope="module")
+def two_calibrations(tmp_path_factory):
+    root = tmp_path_factory.mktemp("recalibration")
+    geom, _ = true_geometry(ROBOT, DEVICE, np.random.default_rng(5))
+    first = _campaign(root / "first", geom, seed=51)
+    std = next(p["std"] for p in json.loads((first / "results.json").read_text())["parameters"] if p["name"] == "j2.a")
+    theta, d, a, alpha, beta = geom["rows"][1]
+    geom["rows"][1] = (theta, d, a + 5.0 * np.sqrt(2.0) * std, alpha, beta)  # 5 combined sigmas, mm
+    second = _campaign(root / "second", geom, seed=52)
+    return root, first, second
+
+
+def test_the_changed_link_is_flagged_and_no_other(two_calibrations):
+    _, first, second = two_calibrations
+    result = armcal_cli("compare", first, second)
+    assert result.returncode == 0, result.stderr
+    assert _flagged(result.stdout) == ["j2.a"]
+    z = float(next(line for line in result.stdout.splitlines() if line.startswith("j2.a")).split()[5])
+    assert 3.0 < z < 7.0  # 5 expected, its own noise 1
+    assert "1 significant change(s) among" in result.stdout
+
+
+def test_calibrated_specs_carry_results_uncertainties_and_compare_alike(two_calibrations):
+    _, first, second = two_calibrations
+    from armcal.spec import load_spec
+
+    results = {p["name"]: p for p in json.loads((first / "results.json").read_text())["parameters"]}
+    robot = load_spec(first / "calibrated.yaml").spec.robot
+    checked = 0
+    for name, joint in zip(robot.joint_names(), robot.joints):
+        for field, to_spec_unit in (("a", 1.0), ("alpha", np.rad2deg(1.0))):
+            row = results[f"{name}.{field}"]
+            if row["free"]:
+                assert getattr(joint, field).std * to_spec_unit == pytest.approx(row["std"], rel=5e-3), f"{name}.{field}"
+                checked += 1
+    assert checked >= 8
+    result = armcal_cli("compare", first / "calibrated.yaml", second / "calibrated.yaml")
+    assert result.returncode == 0, result.stderr
+    assert _flagged(result.stdout) == ["j2.a"]
+
+
+@pytest.mark.skipif(shutil.which("git") is None, reason="git makes the test repository")
+def test_a_calibrated_spec_at_two_git_revisions(two_calibrations):
+    root, first, second = two_calibrations
+    repo = root / "repo"
+    repo.mkdir()
+    git = lambda *args: subprocess.run(["git", "-C", repo, "-c", "user.name=t", "-c", "user.email=t@t", *args], check=True, capture_output=True)  # noqa: E731
+    git("init", "-q")
+    for out, message in ((first, "first calibration"), (second, "recalibration")):
+        shutil.copy(out / "calibrated.yaml", repo / "robot.yaml")
+        git("add", "robot.yaml")
+        git("commit", "-q", "-m", message)
+    git("tag", "-a", "v1", "-m", "first", "HEAD~1")
+    spec = repo / "robot.yaml"
+    for old in (f"{spec}@HEAD~1", f"{spec}@v1", f"{spec}@HEAD^"):
+        result = armcal_cli("compare", old, spec)
+        assert result.returncode == 0, result.stderr
+        assert _flagged(result.stdout) == ["j2.a"], old
+    git("gc", "-q")  # the same from packed objects and refs
+    assert _flagged(armcal_cli("compare", f"{spec}@v1", f"{spec}@HEAD").stdout) == ["j2.a"]
+    missing = armcal_cli("compare", f"{spec}@nosuchbranch", spec)
+    assert missing.returncode == 1 and "no branch, tag or commit 'nosuchbranch'" in missing.stderr
+    root_commit = armcal_cli("compare", f"{spec}@HEAD~2", spec)
+    assert root_commit.returncode == 1 and "has 0 parent(s)" in root_commit.stderr

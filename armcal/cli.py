@@ -277,6 +277,35 @@ def import_ipa(
     typer.echo(f"wrote {out}: {len(measurements)} samples")
 
 
+@app.command(cls=Command)
+@user_errors
+def new(
+    robot: Annotated[str | None, typer.Option("--robot", help="A library robot (see --list), e.g. ur5e.", metavar="NAME")] = None,
+    device: Annotated[str | None, typer.Option("--device", help="tracker, ballbar, theodolite or sonic_digitizer.", metavar="TYPE")] = None,
+    out: Annotated[Path | None, typer.Option("--out", help="The spec to write (default: <robot>-<device>.yaml here).", metavar="SPEC")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing spec.")] = False,
+    list_robots: Annotated[bool, typer.Option("--list", help="List the library's robots and exit.")] = False,
+) -> None:
+    """Write a commented starting spec for a library robot and a measuring device (docs/robots.md)."""
+    from armcal.fileio import refuse_replacing, write_text_atomic
+    from armcal.new_spec import DEVICES, default_out, new_spec_text
+    from armcal.robot_library import library_robot, names
+
+    if list_robots:
+        for name in names():
+            typer.echo(f"{name:24s} {library_robot(name).robot.name}")
+        return
+    if robot is None or device is None:
+        raise UserError("give --robot NAME and --device TYPE (or --list for the robots)")
+    if device not in DEVICES:
+        raise UserError(f"unknown device '{device}'; choose one of {', '.join(DEVICES)}")
+    entry = library_robot(robot)
+    path = out or default_out(entry.name, device)
+    refuse_replacing([path], [], force)
+    write_text_atomic(path, new_spec_text(entry, device, path.stem))
+    typer.echo(f"wrote {path}: {entry.robot.name}, {device}; check it with `armcal validate {path}`")
+
+
 CalibratedArg = Annotated[Path, typer.Argument(help="A calibrated spec (a run's calibrated.yaml) or a run's output folder.", metavar="CALIBRATED", show_default=False)]
 OutFileOption = Annotated[Path, typer.Option("--out", help="The file to write.", metavar="FILE")]
 ForceOption = Annotated[bool, typer.Option("--force", help="Replace an existing file.")]

@@ -53,3 +53,53 @@ def test_the_imported_spec_moves_as_yourdfpy_moves_the_urdf(tmp_path, urdf, base
     found = urdf_oracle.poses(model, urdf_oracle.joint_values(Q, imported.joint_types), [tip], base)[tip]
     position, rotation = urdf_oracle.differences(imported.tool_poses(Q), found)
     assert position < 1e-6 and rotation < 1e-9, (position, rotation)
+
+
+ARM = (URDFS / "ros_industrial.urdf").read_text()
+BAD_URDFS = [  # (URDF text, --base, --tip, expected message after "FILE:")
+    ("<robot name='r'><link name='a'></robot>", "a", "a", "1:34: not XML: mismatched tag"),
+    ('<?xml version="1.0"?>\n<!DOCTYPE r [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">]>\n<robot name="&b;"/>',
+     "a", "b", "2: the file has a DOCTYPE; a URDF needs none, and armcal reads none (entities are not expanded)"),
+    ("<sdf version='1.6'/>", "a", "b", "1: the top element is <sdf>, not a URDF's <robot>"),
+    ('<robot name="r" xmlns:xacro="http://ros.org/wiki/xacro">\n  <xacro:include filename="$(find x)/arm.xacro"/>\n</robot>', "a", "b",
+     "2: <xacro:include>: this is a xacro file; armcal runs nothing, expand it first (xacro FILE > robot.urdf)"),
+    (ARM, "base_link", "ghost", " no link 'ghost'; the links are base_link, link_1, link_2, link_3, link_4, link_5, link_6, flange, tool0, base, camera_link"),
+    (ARM, "tool0", "base_link", " no chain from 'tool0' to 'base_link': 'tool0' is not among the links above 'base_link' (none)"),
+    (ARM, "camera_link", "tool0", " no chain from 'camera_link' to 'tool0': 'camera_link' is not among the links above 'tool0' (flange, link_6, link_5, link_4, link_3, link_2, link_1, base_link)"),
+    (ARM.replace('<axis xyz="0 1 0"/>', '<axis xyz="0 1 0"/><mimic joint="joint_a2"/>'), "base_link", "tool0",
+     "39: joint 'joint_a3' mimics another joint; armcal's joints are independent (mimic joints are not imported)"),
+    (ARM.replace('name="joint_a4" type="revolute"', 'name="joint_a4" type="floating"'), "base_link", "tool0",
+     "46: joint 'joint_a4' is floating; armcal imports revolute, continuous, prismatic and fixed joints"),
+    (ARM.replace('name="joint_a4" type="revolute"', 'name="joint_a4" type="planar"'), "base_link", "tool0",
+     "46: joint 'joint_a4' is planar; armcal imports revolute, continuous, prismatic and fixed joints"),
+    (ARM.replace('<origin xyz="0.420 0 0"', '<origin xyz="${a5_x} 0 0"'), "base_link", "tool0",
+     "54: <origin xyz=\"${a5_x} 0 0\">: not 3 numbers (a xacro expression? run xacro first)"),
+    (ARM.replace('<axis xyz="-1 0 0"/>\n    <limit lower="-3.2288591161895095" upper="3.2288591161895095" effort="0" velocity="6.283185307179586"/>',
+                 '<axis xyz="-1 0 0"/>'), "base_link", "tool0", "46: joint 'joint_a4' (revolute) has no <limit>; URDF requires one"),
+    (ARM, "link_6", "tool0", " no revolute, continuous or prismatic joint between 'link_6' and 'tool0'"),
+]
+
+
+@pytest.mark.parametrize("text, base, tip, message", BAD_URDFS, ids=["not-xml", "doctype", "not-urdf", "xacro", "no-link", "upwards",
+                                                                    "side-branch", "mimic", "floating", "planar", "expression", "no-limit", "no-joint"])
+def test_a_bad_urdf_is_one_located_message(tmp_path, text, base, tip, message):
+    from armcal.errors import UserError
+    from armcal.importers.urdf import read_urdf
+
+    path = tmp_path / "bad.urdf"
+    path.write_text(text)
+    with pytest.raises(UserError) as raised:
+        read_urdf(path, base, tip)
+    assert str(raised.value) == f"{path}:{message}"
+
+
+def test_the_command_refuses_a_large_file_and_replaces_nothing(tmp_path):
+    large = tmp_path / "large.urdf"
+    large.write_text("<robot>" + " " * (16 << 20) + "</robot>")
+    result = armcal_cli("import-urdf", large, "--base", "a", "--tip", "b", "--out", tmp_path / "spec.yaml")
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert result.stderr == f"error: {large}: cannot read the urdf file: it has 16 MiB, more than the 16 MiB a urdf file may have\n"
+    existing = tmp_path / "spec.yaml"
+    existing.write_text("mine")
+    again = armcal_cli("import-urdf", URDFS / "gantry.urdf", "--base", "world", "--tip", "tcp", "--out", existing)
+    assert again.returncode == 1 and "--force" in again.stderr and existing.read_text() == "mine"

@@ -3,9 +3,8 @@
 Goswami's chain T = T1L T1J T2L ... TnJ T(n+1)L (3), each link Trans(x, y, z) Rot(z, alpha) Rot(y, beta)
 Rot(x, gamma), each joint Rot(z, theta) (Trans(0, 0, theta) when prismatic), theta = theta0 + k q (2): the
 chain's links[i - 1] is link i, its last fixed transform the spec's tool (link n + 1 left at the identity),
-theta0 = 0 and k = 1 fixed. Values in mm and deg with 15 significant digits (limits 12; below 1e-12, 0), so the
-spec's forward kinematics
-is the URDF's to 1e-9 mm.
+theta0 = 0 and k = 1 fixed. Values in mm and deg with 15 significant digits (limits 12; below 1e-12, 0), so
+the spec's forward kinematics is the URDF's to 1e-9 mm.
 """
 
 from __future__ import annotations

@@ -37,11 +37,12 @@ def test_importing_armcals_urdf_gives_the_chain_back(tmp_path, name, changes):
 
 @pytest.mark.parametrize("urdf, base, tip, kinds", [
     ("ros_industrial.urdf", "base_link", "tool0", ["revolute"] * 6),
+    ("ros_industrial.urdf", "base", "tool0", ["revolute"] * 6),  # up the fixed base_link -> base, then down
     ("gantry.urdf", "world", "tcp", ["prismatic", "revolute", "revolute", "prismatic", "revolute"]),
 ])
 def test_the_imported_spec_moves_as_yourdfpy_moves_the_urdf(tmp_path, urdf, base, tip, kinds):
     """ROS-Industrial style (rpy origins, axes -z, y, -x, fixed base_link -> base and flange -> tool0, meshes by
-    package://, a side branch) and arbitrary unit axes with prismatic joints: tip in base at 1,000 random
+    package://, a side branch; from base_link, and from the controller's base) and arbitrary unit axes with prismatic joints: tip in base at 1,000 random
     configurations within the imported limits, 1e-6 mm and 1e-9, against yourdfpy."""
     imported = _imported(tmp_path, URDFS / urdf, base, tip)
     model = urdf_oracle.load(URDFS / urdf)
@@ -64,8 +65,9 @@ BAD_URDFS = [  # (URDF text, --base, --tip, expected message after "FILE:")
     ('<robot name="r" xmlns:xacro="http://ros.org/wiki/xacro">\n  <xacro:include filename="$(find x)/arm.xacro"/>\n</robot>', "a", "b",
      "2: <xacro:include>: this is a xacro file; armcal runs nothing, expand it first (xacro FILE > robot.urdf)"),
     (ARM, "base_link", "ghost", " no link 'ghost'; the links are base_link, link_1, link_2, link_3, link_4, link_5, link_6, flange, tool0, base, camera_link"),
-    (ARM, "tool0", "base_link", " no chain from 'tool0' to 'base_link': 'tool0' is not among the links above 'base_link' (none)"),
-    (ARM, "camera_link", "tool0", " no chain from 'camera_link' to 'tool0': 'camera_link' is not among the links above 'tool0' (flange, link_6, link_5, link_4, link_3, link_2, link_1, base_link)"),
+    (ARM, "tool0", "base_link", " no chain from 'tool0' to 'base_link': 'tool0' is neither a link above 'base_link' (none) nor one fixed to such a link"),
+    (ARM, "tool0", "camera_link", " no chain from 'tool0' to 'camera_link': 'tool0' is neither a link above 'camera_link' (link_3, link_2, link_1, base_link) nor one fixed to such a link"),
+    ("<robot name='r'><link name='a'/><link name='b'/></robot>", "a", "b", " no chain from 'a' to 'b': they are in two trees"),
     (ARM.replace('<axis xyz="0 1 0"/>', '<axis xyz="0 1 0"/><mimic joint="joint_a2"/>'), "base_link", "tool0",
      "39: joint 'joint_a3' mimics another joint; armcal's joints are independent (mimic joints are not imported)"),
     (ARM.replace('name="joint_a4" type="revolute"', 'name="joint_a4" type="floating"'), "base_link", "tool0",
@@ -81,7 +83,7 @@ BAD_URDFS = [  # (URDF text, --base, --tip, expected message after "FILE:")
 
 
 @pytest.mark.parametrize("text, base, tip, message", BAD_URDFS, ids=["not-xml", "doctype", "not-urdf", "xacro", "no-link", "upwards",
-                                                                    "side-branch", "mimic", "floating", "planar", "expression", "no-limit", "no-joint"])
+                                                                    "side-branch", "two-trees", "mimic", "floating", "planar", "expression", "no-limit", "no-joint"])
 def test_a_bad_urdf_is_one_located_message(tmp_path, text, base, tip, message):
     from armcal.errors import UserError
     from armcal.importers.urdf import read_urdf

@@ -4,7 +4,8 @@ URDF (ROS's robot description) writes each joint as child = parent * origin(xyz,
 rotation R = Rz(yaw) Ry(pitch) Rx(roll), the motion Rot(axis, q) (revolute, continuous) or Trans(q axis)
 (prismatic), lengths in metres. armcal's joints move about z: with S a rotation taking z onto the axis,
 Rot(axis, q) = S Rot(z, q) S^-1 (likewise the translation), so S ends the fixed transform before the joint and
-S^-1 starts the next one; fixed joints multiply into the transform they sit in. The chain is then
+S^-1 starts the next one; fixed joints multiply into the transform they sit in (their inverse where the chain
+climbs from BASE to a link above TIP, as from ROS-Industrial's base to base_link). The chain is then
 T = links[0] J_1(q_1) links[1] ... J_n(q_n) links[n], J_i = Rot(z, q_i) or Trans(0, 0, q_i), in mm.
 
 The file is only parsed, never run: no xacro, no DOCTYPE (so no entities to expand), meshes, inertias and
@@ -22,7 +23,7 @@ import numpy as np
 
 from armcal.errors import UserError
 from armcal.fileio import read_input
-from armcal.kinematics.transforms import compose, rot_x, rot_y, rot_z, trans
+from armcal.kinematics.transforms import compose, inverse, rot_x, rot_y, rot_z, trans
 
 MOVING = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
 CONTINUOUS_LIMITS = (-2 * np.pi, 2 * np.pi)  # rad: a continuous joint's limits in the spec, one turn either way
@@ -92,14 +93,13 @@ def read_urdf(path: Path, base: str, tip: str) -> UrdfChain:
     xacro = next((e for e in root.iter() if e.tag.startswith("xacro:")), None)
     if xacro is not None:
         raise document.error(xacro, f"<{xacro.tag}>: this is a xacro file; armcal runs nothing, expand it first (xacro FILE > robot.urdf)")
-    path_joints = _joints_between(document, base, tip)
     joints, links, merged = [], [], []
     pending = np.eye(4)
-    for element in path_joints:
+    for element, upwards in _joints_between(document, base, tip):
         name, kind = element.get("name", "?"), element.get("type")
         origin = _origin(document, element.find("origin"))
         if kind == "fixed":
-            pending = pending @ origin
+            pending = pending @ (inverse(origin) if upwards else origin)
             merged.append(name)
             continue
         if kind not in MOVING:
@@ -120,8 +120,9 @@ def read_urdf(path: Path, base: str, tip: str) -> UrdfChain:
     return UrdfChain(root.get("name", "robot"), tuple(joints), tuple(links), tuple(merged))
 
 
-def _joints_between(document: _Document, base: str, tip: str) -> list[ET.Element]:
-    """The <joint> elements from link ``base`` to link ``tip``, base first."""
+def _joints_between(document: _Document, base: str, tip: str) -> list[tuple[ET.Element, bool]]:
+    """(joint, upwards) from link ``base`` to link ``tip``: up from ``base`` through fixed joints (upwards True)
+    to the first link above ``tip`` (ROS-Industrial's ``base`` hangs from ``base_link``), then down to ``tip``."""
     links = [e.get("name") for e in document.root.findall("link")]
     for name in (base, tip):
         if name not in links:
@@ -134,20 +135,32 @@ def _joints_between(document: _Document, base: str, tip: str) -> list[ET.Element
         if child.get("link") in parent_joint:
             raise document.error(joint, f"link '{child.get('link')}' is the child of two joints (the other on line {document.lines[parent_joint[child.get('link')]]}); a URDF is a tree")
         parent_joint[child.get("link")] = joint
-    chain, link = [], tip
-    while link != base:
-        if link not in parent_joint or len(chain) > len(parent_joint):
-            raise UserError(f"{document.path}: no chain from '{base}' to '{tip}': '{base}' is not among the links above '{tip}' ({', '.join(_ancestors(parent_joint, tip)) or 'none'})")
-        chain.append(parent_joint[link])
-        link = parent_joint[link].find("parent").get("link")
-    return chain[::-1]
+    above_tip = _above(parent_joint, tip)
+    names_above_tip = [link for link, _ in above_tip]
+    up = []
+    for link, joint in _above(parent_joint, base):
+        if link in names_above_tip:
+            break
+        up.append(joint)
+    else:
+        raise UserError(f"{document.path}: no chain from '{base}' to '{tip}': they are in two trees")
+    moving = next((j for j in up if j.get("type") != "fixed"), None)
+    if moving is not None:
+        raise UserError(f"{document.path}: no chain from '{base}' to '{tip}': '{base}' is neither a link above '{tip}' "
+                        f"({', '.join(names_above_tip[1:]) or 'none'}) nor one fixed to such a link")
+    down = [joint for _, joint in above_tip[: names_above_tip.index(link)]]
+    return [(joint, True) for joint in up] + [(joint, False) for joint in down[::-1]]
 
 
-def _ancestors(parent_joint: dict[str, ET.Element], link: str) -> list[str]:
+def _above(parent_joint: dict[str, ET.Element], link: str) -> list[tuple[str, ET.Element | None]]:
+    """(link, the joint whose child it is) from ``link`` up to the root (whose joint is None)."""
     out = []
-    while link in parent_joint and len(out) <= len(parent_joint):
-        link = parent_joint[link].find("parent").get("link")
-        out.append(link)
+    while len(out) <= len(parent_joint):
+        joint = parent_joint.get(link)
+        out.append((link, joint))
+        if joint is None:
+            break
+        link = joint.find("parent").get("link")
     return out
 
 

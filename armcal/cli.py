@@ -366,6 +366,27 @@ def compensate(
         typer.echo("  no corrected Cartesian targets: they need the nominal model, in a run's results.json (give the run's folder)")
 
 
+@app.command("import-urdf", cls=Command)
+@user_errors
+def import_urdf(
+    source: Annotated[Path, typer.Argument(help="A URDF file (plain XML: expand a xacro file first).", metavar="URDF", show_default=False)],
+    base: Annotated[str, typer.Option("--base", help="The link the chain starts from: the spec's world frame.", metavar="LINK")],
+    tip: Annotated[str, typer.Option("--tip", help="The link the chain ends at: the spec's tool frame.", metavar="LINK")],
+    out: Annotated[Path, typer.Option("--out", help="The spec (YAML) to write.", metavar="SPEC")],
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing spec.")] = False,
+) -> None:
+    """A six_parameter spec of a URDF's chain from one link to another, device and procedure to edit (docs/export.md)."""
+    from armcal.fileio import refuse_replacing, write_text_atomic
+    from armcal.importers.six_parameter import six_parameter_spec
+    from armcal.importers.urdf import read_urdf
+
+    refuse_replacing([out], [source], force)
+    chain = read_urdf(source, base, tip)
+    write_text_atomic(out, six_parameter_spec(chain, source.name, base, tip))
+    typer.echo(f"wrote {out}: {len(chain.joints)} joints from '{base}' to '{tip}'" + (f", fixed joints merged: {', '.join(chain.merged)}" if chain.merged else ""))
+    typer.echo("  edit its serial, device and procedure: they are placeholders")
+
+
 @app.command(name="compare", cls=Command)
 @user_errors
 def compare_calibrations(

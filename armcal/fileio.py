@@ -17,7 +17,7 @@ from armcal.errors import UserError
 
 
 KiB, MiB = 1 << 10, 1 << 20
-INPUT_LIMITS = {"spec": 256 * KiB, "data": 64 * MiB, "truth": 16 * MiB}  # a spec parses at ~50 KiB/s at worst
+INPUT_LIMITS = {"spec": 256 * KiB, "data": 64 * MiB, "truth": 16 * MiB, "urdf": 16 * MiB}  # a spec parses at ~50 KiB/s at worst
 PSEUDO_FILE_SYSTEMS = (Path("/proc"), Path("/sys"), Path("/dev"))
 
 

@@ -8,7 +8,8 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
-from conftest import SPECS, armcal_cli, copy_example
+import urdf_oracle
+from conftest import SPECS, armcal_cli, copy_example, random_configurations
 
 from armcal.export import export
 from armcal.kinematics.compiler import compile_robot
@@ -24,6 +25,16 @@ CALIBRATED_UR10 = [  # a UR10 with calibration-sized deviations, Hayati's beta, 
     ("  base: {rz: {value: 180, vary: false}}", "  base: {x: 12.5, y: -3.0, z: 4.0, rz: 179.9, ry: 0.3, rx: -0.2}\n  tool: {z: 55.0, rx: 10.0}"),
     ("  targets:\n", "  targets:\n    nest: {link: 3, x: 40.0, y: -25.0, z: 10.0}\n"),
 ]
+
+HAYATI_PUMA = [  # the PUMA's parallel axes 2 and 3 in Hayati's model, with a tilt beta
+    ("  convention: dh", "  convention: mdh"),
+    ("    - {name: j2, limits: [-225, 45], theta: 0, d: 14.909, a: 43.18, alpha: 0}",
+     "    - {name: j2, limits: [-225, 45], theta: 0.1, d: 0, a: 43.18, alpha: 0.05, beta: 0.4}"),
+    ("    - {name: j3, limits: [-45, 225], theta: 0, d: 0, a: -2.032, alpha: 90}",
+     "    - {name: j3, limits: [-45, 225], theta: 0, d: 14.909, a: -2.032, alpha: 90}"),
+]
+URDF_CASES = [("ur10.yaml", CALIBRATED_UR10), ("puma560_dh.yaml", ()), ("goswami_puma560.yaml", ()), ("puma560_dh.yaml", HAYATI_PUMA)]
+URDF_IDS = ["ur10-dh-beta", "puma560-dh", "goswami-six-parameter", "puma560-mdh"]
 
 
 def _rot(axis: str, angle: float) -> np.ndarray:
@@ -81,6 +92,24 @@ def test_the_urdf_moves_as_armcals_chain(tmp_path, name, changes):
         np.testing.assert_allclose(poses["tool0"], kinematics.tool_poses(q[None])[0], atol=1e-6)
         for target in kinematics.targets:
             np.testing.assert_allclose(poses[target], kinematics.target_poses(target, q[None])[0], atol=1e-6)
+
+
+@pytest.mark.parametrize("name, changes", URDF_CASES, ids=URDF_IDS)
+def test_yourdfpy_moves_the_exported_urdf_as_armcals_chain(tmp_path, name, changes):
+    """An independent URDF library (yourdfpy, no meshes) reads `armcal export --format urdf`: tool0 and every
+    target where armcal puts them at 1,000 random configurations within the limits (1e-6 mm, rotations 1e-9)."""
+    path, out = _spec(tmp_path, name, changes), tmp_path / "robot.urdf"
+    result = armcal_cli("export", path, "--format", "urdf", "--out", out)
+    assert result.returncode == 0, result.stderr
+    kinematics = compile_robot(load_spec(path).spec.robot)
+    model = urdf_oracle.load(out)
+    assert model.actuated_joint_names == list(kinematics.joint_names)
+    Q = random_configurations(kinematics, 1000, seed=16)
+    expected = {"tool0": kinematics.tool_poses(Q), **{t: kinematics.target_poses(t, Q) for t in kinematics.targets}}
+    found = urdf_oracle.poses(model, urdf_oracle.joint_values(Q, kinematics.joint_types), list(expected), "world")
+    for link, poses in expected.items():
+        position, rotation = urdf_oracle.differences(found[link], poses)
+        assert position < 1e-6 and rotation < 1e-9, (link, position, rotation)
 
 
 def test_an_encoder_scale_the_urdf_cannot_hold_is_named(tmp_path):

@@ -75,13 +75,19 @@ def inverse(T: np.ndarray) -> np.ndarray:
 
 
 def pose_from_matrix(T: np.ndarray) -> tuple[float, float, float, float, float, float]:
-    """(x, y, z, rz, ry, rx) such that xyz_zyx(...) == T (ZYX Euler angles, ry in [-pi/2, pi/2])."""
+    """(x, y, z, rz, ry, rx) such that xyz_zyx(...) == T (ZYX Euler angles, ry in [-pi/2, pi/2]).
+
+    ry and rx are read from Rot(z, rz)^-1 R = Rot(y, ry) Rot(x, rx), whose entries are all well scaled: near
+    gimbal lock (ry close to +-pi/2) rz is ill-determined, and rx then absorbs its error, so the angles give R
+    back to rounding error where reading rx from R directly would lose up to half the digits. In the lock
+    itself (to 1e-15) only rz - rx (or rz + rx) is defined, and all of it goes into rz.
+    """
     R = T[:3, :3]
-    ry = float(np.arctan2(-R[2, 0], np.hypot(R[0, 0], R[1, 0])))
-    if np.hypot(R[0, 0], R[1, 0]) > 1e-12:
+    if np.hypot(R[0, 0], R[1, 0]) > 1e-15:
         rz = float(np.arctan2(R[1, 0], R[0, 0]))
-        rx = float(np.arctan2(R[2, 1], R[2, 2]))
-    else:  # gimbal lock: only rz - rx (or rz + rx) is defined; put it all in rz
+    else:
         rz = float(np.arctan2(-R[0, 1], R[1, 1]))
-        rx = 0.0
+    M = rot_z(-rz)[:3, :3] @ R
+    ry = float(np.arctan2(-M[2, 0], M[0, 0]))
+    rx = float(np.arctan2(-M[1, 2], M[1, 1]))
     return float(T[0, 3]), float(T[1, 3]), float(T[2, 3]), rz, ry, rx

@@ -1,0 +1,1 @@
+"""Robot descriptions from other tools made into armcal specs (docs/export.md, "URDF in")."""

@@ -1,0 +1,200 @@
+"""A serial chain read from a URDF file: the joints from one link to another, fixed joints merged.
+
+URDF (ROS's robot description) writes each joint as child = parent * origin(xyz, rpy) * motion, the origin's
+rotation R = Rz(yaw) Ry(pitch) Rx(roll), the motion Rot(axis, q) (revolute, continuous) or Trans(q axis)
+(prismatic), lengths in metres. armcal's joints move about z: with S a rotation taking z onto the axis,
+Rot(axis, q) = S Rot(z, q) S^-1 (likewise the translation), so S ends the fixed transform before the joint and
+S^-1 starts the next one; fixed joints multiply into the transform they sit in (their inverse where the chain
+climbs from BASE to a link above TIP, as from ROS-Industrial's base to base_link). The chain is then
+T = links[0] J_1(q_1) links[1] ... J_n(q_n) links[n], J_i = Rot(z, q_i) or Trans(0, 0, q_i), in mm.
+
+The file is only parsed, never run: no xacro, no DOCTYPE (so no entities to expand), meshes, inertias and
+everything else off the chain ignored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from xml.etree import ElementTree as ET
+from xml.parsers import expat
+
+import numpy as np
+
+from armcal.errors import UserError
+from armcal.fileio import read_input
+from armcal.kinematics.transforms import compose, inverse, rot_x, rot_y, rot_z, trans
+
+MOVING = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
+CONTINUOUS_LIMITS = (-2 * np.pi, 2 * np.pi)  # rad: a continuous joint's limits in the spec, one turn either way
+
+
+@dataclass(frozen=True)
+class UrdfJoint:
+    name: str
+    type: str  # revolute or prismatic
+    limits: tuple[float, float]  # rad or mm
+    continuous: bool
+
+
+@dataclass(frozen=True)
+class UrdfChain:
+    robot: str
+    joints: tuple[UrdfJoint, ...]
+    links: tuple[np.ndarray, ...]  # n + 1 fixed transforms (mm): T = links[0] J_1 links[1] ... J_n links[n]
+    merged: tuple[str, ...]  # the fixed joints multiplied into the links
+
+
+class _Document:
+    """The elements of a URDF file and the line each starts on, parsed with expat, DOCTYPE refused."""
+
+    def __init__(self, path: Path, data: bytes):
+        self.path, self.lines = path, {}
+        builder = ET.TreeBuilder()
+        parser = expat.ParserCreate()
+
+        def start(tag, attributes):
+            self.lines[builder.start(tag, attributes)] = parser.CurrentLineNumber
+
+        def doctype(*_):
+            raise UserError(f"{path}:{parser.CurrentLineNumber}: the file has a DOCTYPE; a URDF needs none, and armcal reads none (entities are not expanded)")
+
+        parser.StartElementHandler, parser.EndElementHandler = start, builder.end
+        parser.CharacterDataHandler, parser.StartDoctypeDeclHandler = builder.data, doctype
+        try:
+            parser.Parse(data, True)
+        except expat.ExpatError as exc:
+            raise UserError(f"{path}:{exc.lineno}:{exc.offset + 1}: not XML: {expat.ErrorString(exc.code)}") from None
+        self.root = builder.close()
+
+    def error(self, element: ET.Element, message: str) -> UserError:
+        return UserError(f"{self.path}:{self.lines[element]}: {message}")
+
+    def numbers(self, element: ET.Element, attribute: str, count: int, default: str | None = None) -> np.ndarray:
+        text = element.get(attribute, default)
+        if text is None:
+            raise self.error(element, f"<{element.tag}> needs the attribute {attribute}")
+        try:
+            values = np.array([float(v) for v in text.split()])
+        except ValueError:
+            hint = " (a xacro expression? run xacro first)" if "$" in text else ""
+            raise self.error(element, f"<{element.tag} {attribute}=\"{text}\">: not {count} number{'s' if count > 1 else ''}{hint}") from None
+        if len(values) != count or not np.all(np.isfinite(values)):
+            raise self.error(element, f"<{element.tag} {attribute}=\"{text}\">: not {count} finite number{'s' if count > 1 else ''}")
+        return values
+
+
+def read_urdf(path: Path, base: str, tip: str) -> UrdfChain:
+    """The chain of ``path``'s URDF from link ``base`` to link ``tip``."""
+    document = _Document(path, read_input(path, "urdf"))
+    root = document.root
+    if root.tag != "robot":
+        raise document.error(root, f"the top element is <{root.tag}>, not a URDF's <robot>")
+    xacro = next((e for e in root.iter() if e.tag.startswith("xacro:")), None)
+    if xacro is not None:
+        raise document.error(xacro, f"<{xacro.tag}>: this is a xacro file; armcal runs nothing, expand it first (xacro FILE > robot.urdf)")
+    joints, links, merged = [], [], []
+    pending = np.eye(4)
+    for element, upwards in _joints_between(document, base, tip):
+        name, kind = element.get("name", "?"), element.get("type")
+        origin = _origin(document, element.find("origin"))
+        if kind == "fixed":
+            pending = pending @ (inverse(origin) if upwards else origin)
+            merged.append(name)
+            continue
+        if kind not in MOVING:
+            raise document.error(element, f"joint '{name}' is {kind}; armcal imports revolute, continuous, prismatic and fixed joints")
+        if element.find("mimic") is not None:
+            raise document.error(element, f"joint '{name}' mimics another joint; armcal's joints are independent (mimic joints are not imported)")
+        axis_element = element.find("axis")
+        axis = document.numbers(axis_element, "xyz", 3) if axis_element is not None else np.array([1.0, 0.0, 0.0])
+        if np.linalg.norm(axis) < 1e-9:
+            raise document.error(axis_element, f"joint '{name}': the axis is zero")
+        S = _z_onto(axis / np.linalg.norm(axis))
+        links.append(pending @ origin @ S)
+        pending = S.T
+        joints.append(UrdfJoint(name, MOVING[kind], _limits(document, element, kind), kind == "continuous"))
+    if not joints:
+        raise UserError(f"{path}: no revolute, continuous or prismatic joint between '{base}' and '{tip}'")
+    links.append(pending)
+    return UrdfChain(root.get("name", "robot"), tuple(joints), tuple(links), tuple(merged))
+
+
+def _joints_between(document: _Document, base: str, tip: str) -> list[tuple[ET.Element, bool]]:
+    """(joint, upwards) from link ``base`` to link ``tip``: up from ``base`` through fixed joints (upwards True)
+    to the first link above ``tip`` (ROS-Industrial's ``base`` hangs from ``base_link``), then down to ``tip``."""
+    links = [e.get("name") for e in document.root.findall("link")]
+    for name in (base, tip):
+        if name not in links:
+            raise UserError(f"{document.path}: no link '{name}'; the links are {', '.join(links) or '(none)'}")
+    parent_joint: dict[str, ET.Element] = {}
+    for joint in document.root.findall("joint"):
+        parent, child = joint.find("parent"), joint.find("child")
+        if parent is None or child is None or not parent.get("link") or not child.get("link"):
+            raise document.error(joint, f"joint '{joint.get('name', '?')}' needs <parent link=...> and <child link=...>")
+        if child.get("link") in parent_joint:
+            raise document.error(joint, f"link '{child.get('link')}' is the child of two joints (the other on line {document.lines[parent_joint[child.get('link')]]}); a URDF is a tree")
+        parent_joint[child.get("link")] = joint
+    above_tip = _above(parent_joint, tip)
+    names_above_tip = [link for link, _ in above_tip]
+    up = []
+    for link, joint in _above(parent_joint, base):
+        if link in names_above_tip:
+            break
+        up.append(joint)
+    else:
+        raise UserError(f"{document.path}: no chain from '{base}' to '{tip}': they are in two trees")
+    moving = next((j for j in up if j.get("type") != "fixed"), None)
+    if moving is not None:
+        raise UserError(f"{document.path}: no chain from '{base}' to '{tip}': '{base}' is neither a link above '{tip}' "
+                        f"({', '.join(names_above_tip[1:]) or 'none'}) nor one fixed to such a link")
+    down = [joint for _, joint in above_tip[: names_above_tip.index(link)]]
+    return [(joint, True) for joint in up] + [(joint, False) for joint in down[::-1]]
+
+
+def _above(parent_joint: dict[str, ET.Element], link: str) -> list[tuple[str, ET.Element | None]]:
+    """(link, the joint whose child it is) from ``link`` up to the root (whose joint is None)."""
+    out = []
+    while len(out) <= len(parent_joint):
+        joint = parent_joint.get(link)
+        out.append((link, joint))
+        if joint is None:
+            break
+        link = joint.find("parent").get("link")
+    return out
+
+
+def _origin(document: _Document, element: ET.Element | None) -> np.ndarray:
+    """Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll) of an <origin> (identity when absent), in mm."""
+    if element is None:
+        return np.eye(4)
+    x, y, z = document.numbers(element, "xyz", 3, "0 0 0") * 1000.0
+    roll, pitch, yaw = document.numbers(element, "rpy", 3, "0 0 0")
+    return compose(trans(x, y, z), rot_z(yaw), rot_y(pitch), rot_x(roll))
+
+
+def _z_onto(axis: np.ndarray) -> np.ndarray:
+    """The rotation taking z onto the unit vector ``axis``: about z x axis, or half a turn about x for -z."""
+    z = np.array([0.0, 0.0, 1.0])
+    v, c = np.cross(z, axis), float(axis @ z)
+    S = np.eye(4)
+    if c < -1.0 + 1e-12:
+        S[:3, :3] = np.diag([1.0, -1.0, -1.0])
+    else:
+        K = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+        S[:3, :3] = np.eye(3) + K + K @ K / (1.0 + c)
+    return S
+
+
+def _limits(document: _Document, joint: ET.Element, kind: str) -> tuple[float, float]:
+    """(lower, upper) in rad or mm: the <limit>'s, a continuous joint's CONTINUOUS_LIMITS."""
+    if kind == "continuous":
+        return CONTINUOUS_LIMITS
+    name, limit = joint.get("name", "?"), joint.find("limit")
+    if limit is None:
+        raise document.error(joint, f"joint '{name}' ({kind}) has no <limit>; URDF requires one")
+    (low,), (high,) = document.numbers(limit, "lower", 1, "0"), document.numbers(limit, "upper", 1, "0")
+    if low >= high:
+        raise document.error(limit, f"joint '{name}': the lower limit {low:g} is not below the upper limit {high:g}")
+    scale = 1000.0 if kind == "prismatic" else 1.0
+    return low * scale, high * scale

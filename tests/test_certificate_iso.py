@@ -205,3 +205,13 @@ def test_an_acceptance_armcal_cannot_judge_is_a_located_spec_error(tmp_path, exa
     with pytest.raises(SpecError, match=re.escape(message)) as failed:
         load_spec(spec)
     assert f"{spec}:" in str(failed.value)
+
+
+def test_a_history_file_inside_the_output_folder_is_never_replaced(simulated, tmp_path):
+    out, _ = simulated
+    folder = tmp_path / "run"
+    shutil.copytree(out, folder)
+    before = (folder / "results.json").read_bytes()
+    refused = armcal_cli("run", ROOT / "examples" / "hidden_harmonic" / "spec.yaml", "--out", folder, "--force", "--history", folder)
+    assert refused.returncode == 1 and "an input of this run" in refused.stderr
+    assert (folder / "results.json").read_bytes() == before

@@ -59,7 +59,7 @@ def simulated(tmp_path_factory, measured):
     out = tmp_path_factory.mktemp("simulated") / "out"
     result = armcal_cli("run", ROOT / "examples" / "hidden_harmonic" / "spec.yaml", "--out", out, "--history", measured[0] / "out")
     assert result.returncode == 0, result.stderr
-    return out, json.loads((out / "results.json").read_text())
+    return out, json.loads((out / "results.json").read_text()), result.stdout
 
 
 def _validation_residuals_mm(folder) -> dict[int, np.ndarray]:
@@ -119,14 +119,14 @@ def test_every_shipped_examples_data_are_armcals_simulation(spec):
 
 
 def test_simulated_data_carry_the_banner_on_every_page(simulated):
-    out, results = simulated
+    out, results, _ = simulated
     assert results["simulated"] == {"calibration": True, "validation": True}
     pages = _pdf_pages(out / "certificate.pdf")
     assert len(pages) >= 4 and all(BANNER in page for page in pages)
 
 
 def test_without_acceptance_or_instrument_the_certificate_says_so(simulated):
-    out, results = simulated
+    out, results, _ = simulated
     assert results["acceptance"] is None and results["campaign"]["traceability"] is None
     html = (out / "certificate.html").read_text()
     assert "No acceptance criterion was given in the spec" in html and "PASS" not in html and "FAIL" not in html
@@ -135,19 +135,20 @@ def test_without_acceptance_or_instrument_the_certificate_says_so(simulated):
 
 def test_history_lists_the_earlier_run_of_the_same_serial(measured, simulated):
     _, earlier, _ = measured
-    out, results = simulated
+    out, results, _ = simulated
     (entry,) = results["history"]
     assert entry["run_id"] == earlier["run_id"] and entry["created"] == earlier["created"]
     assert entry["rms_validation"] == earlier["residuals"]["validation"]["after"]["rms"]
     assert entry["compared"] == sum(p["free"] for p in results["parameters"])
     text = " ".join(_pdf_pages(out / "certificate.pdf"))
     assert "Calibration history of this robot" in text and earlier["run_id"] in text
+    assert "history: 1 earlier calibration(s) of this serial" in simulated[2] and "SIMULATED DATA" in simulated[2]
 
 
 def test_history_flags_significant_changes_and_refuses_another_serial(simulated, tmp_path):
     """An earlier calibration with one parameter 5 combined uncertainties away and one 1 away: only the first is listed,
     with z = change / sqrt(u_old^2 + u_new^2); results.json given to report is not replaced; another serial is exit 1."""
-    out, results = simulated
+    out, results, _ = simulated
     folder = tmp_path / "run"
     shutil.copytree(out, folder)
     earlier = json.loads(json.dumps(results))
@@ -208,7 +209,7 @@ def test_an_acceptance_armcal_cannot_judge_is_a_located_spec_error(tmp_path, exa
 
 
 def test_a_history_file_inside_the_output_folder_is_never_replaced(simulated, tmp_path):
-    out, _ = simulated
+    out, _, _ = simulated
     folder = tmp_path / "run"
     shutil.copytree(out, folder)
     before = (folder / "results.json").read_bytes()

@@ -153,6 +153,12 @@ def simulate(
             typer.echo(f"  {name}: {len(data)} samples{why}")
 
 
+HistoryOption = Annotated[
+    list[Path] | None,
+    typer.Option("--history", help="An earlier calibration of the same robot (a results.json or a run's folder), for the certificate's history; repeatable.", metavar="PATH"),
+]
+
+
 @app.command(cls=Command)
 @user_errors
 def run(
@@ -160,12 +166,13 @@ def run(
     out: Annotated[Path | None, typer.Option("--out", help="Output folder (default: out/<spec stem>/ beside the spec).", metavar="DIR")] = None,
     no_pdf: Annotated[bool, typer.Option("--no-pdf", help="Skip the PDF certificate.")] = False,
     force: Annotated[bool, typer.Option("--force", help="Replace an existing certificate and its whole output set.")] = False,
+    history: HistoryOption = None,
 ) -> None:
     """Identify the robot from the spec's data and write results.json and calibrated.yaml."""
     from armcal.pipeline import run as run_pipeline
     from armcal.summary import run_summary
 
-    outcome = run_pipeline(spec, out, force, pdf=not no_pdf)
+    outcome = run_pipeline(spec, out, force, pdf=not no_pdf, history=history or [])
     typer.echo(run_summary(outcome))
     raise typer.Exit(outcome.exit_code)
 
@@ -176,11 +183,12 @@ def report(
     results: Annotated[Path, typer.Argument(help="A results.json written by armcal run, or the output folder that holds it.", metavar="RESULTS", show_default=False)],
     no_pdf: Annotated[bool, typer.Option("--no-pdf", help="Write only certificate.html.")] = False,
     force: Annotated[bool, typer.Option("--force", help="Replace the existing certificate.")] = False,
+    history: HistoryOption = None,
 ) -> None:
-    """Render the certificate again from results.json alone (and the plots beside it)."""
+    """Render the certificate again from results.json alone (and the plots beside it, and earlier results given)."""
     from armcal.report.render import rerender
 
-    for path in rerender(results, pdf=not no_pdf, force=force):
+    for path in rerender(results, pdf=not no_pdf, force=force, history=history or []):
         typer.echo(f"wrote {path}")
 
 

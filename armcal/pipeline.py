@@ -17,10 +17,11 @@ from armcal.evaluate.summary import summarize
 from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import draw_plots
 from armcal.output_set import output_set, run_id, stamp_svg
-from armcal.report.render import certificate_files
+from armcal.report.render import certificate_files, read_earlier
 from armcal.results.model import Results
 from armcal.results.calibrated import calibrated_text
 from armcal.results.campaign import campaign
+from armcal.results.history import history_entries
 from armcal.simulate import find_truth
 from armcal.spec import load_spec
 
@@ -40,21 +41,23 @@ def default_out_dir(spec_path: Path) -> Path:
     return spec_path.parent / "out" / spec_path.stem
 
 
-def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: bool = True) -> Outcome:
-    """Calibrate the robot of a spec and publish the output set into ``out_dir`` (output_set.py)."""
+def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: bool = True, history: list[Path] = ()) -> Outcome:
+    """Calibrate the robot of a spec and publish the output set into ``out_dir`` (output_set.py); ``history``: earlier
+    results of the same robot (results.json files or run folders), read before the fit and never replaced."""
     loaded = load_spec(spec_path)
     out_dir = out_dir if out_dir is not None else default_out_dir(loaded.path)
     spec = loaded.spec
     if spec.data is None:
         raise UserError(f"{loaded.path}: the spec has no data section; add one (or write data with 'armcal simulate')")
     folder = loaded.path.parent
-    inputs = [loaded.path, *(folder / f for f in (spec.data.calibration, spec.data.validation) if f)]
+    earlier = read_earlier(history, spec.robot.serial, str(loaded.path))
+    inputs = [loaded.path, *(folder / f for f in (spec.data.calibration, spec.data.validation) if f), *(Path(source) for source, _ in earlier)]
     user_templates = folder / spec.report.template if spec.report.template else None
     with output_set(out_dir, inputs + ([user_templates] if user_templates else []), force) as publish:
-        return _run(loaded, inputs, user_templates, Path(out_dir), pdf, publish)
+        return _run(loaded, inputs, user_templates, Path(out_dir), pdf, publish, earlier)
 
 
-def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path, pdf: bool, publish) -> Outcome:
+def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path, pdf: bool, publish, earlier: list[tuple[str, dict]]) -> Outcome:
     """The stages in order, then the whole output set published at once."""
     spec = loaded.spec
     folder = loaded.path.parent
@@ -75,7 +78,13 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     validation_path = folder / spec.data.validation if spec.data.validation else None
     simulated = (truth is not None, validation_path is not None and find_truth(validation_path) is not None)
     measured = campaign(loaded, calibration, validation, simulated)
-    results = summarize(loaded, calibrated, calibration.rows, tasks, found, list(plots), measured).model_copy(update={"run_id": identifier})
+    results = summarize(loaded, calibrated, calibration.rows, tasks, found, list(plots), measured)
+    results = Results.model_validate({
+        **results.model_dump(mode="json"),
+        "run_id": identifier,
+        "simulated": {"calibration": simulated[0], "validation": simulated[1] if validation_path else None},
+        "history": history_entries(results.model_dump(mode="json"), earlier),
+    })
     files = {
         "results.json": json.dumps(results.model_dump(mode="json"), indent=2) + "\n",
         "calibrated.yaml": calibrated_text(loaded, results, calibrated, out_dir),

@@ -131,9 +131,25 @@ def run_summary(outcome) -> str:
         lines.append(f"  flat direction at the solution: singular value {flat.ratio:.2g} of the largest, along {moved}")
     if r.identifiability.unidentifiable:
         lines.append(f"  not identifiable from these data: {', '.join(r.identifiability.unidentifiable)}")
+    lines += conformity_lines(r)
     written = ["results.json", "calibrated.yaml", "certificate.html"] + (["certificate.pdf"] if (outcome.out_dir / "certificate.pdf").exists() else [])
     lines.append(f"  wrote {', '.join(written)} in {outcome.out_dir}")
     return "\n".join(lines)
+
+
+def conformity_lines(r) -> list[str]:
+    """The acceptance verdict, the history given and whether the data are simulated, as the certificate states them."""
+    lines = []
+    a = r.acceptance
+    if a is not None:
+        guard = f" = tolerance {a.tolerance:.4g} - U {a.expanded_uncertainty:.2g}" if a.decision_rule == "guarded" else ""
+        lines.append(f"  acceptance: {a.verdict.upper()} ({a.statistic} {a.value:.4g} {a.unit}, limit {a.acceptance_limit:.4g}{guard} {a.unit}, {a.decision_rule} rule)")
+    if r.history:
+        changed = sum(len(h.significant) for h in r.history)
+        lines.append(f"  history: {len(r.history)} earlier calibration(s) of this serial, {changed} significant parameter change(s)")
+    if r.simulated is not None and (r.simulated.calibration or r.simulated.validation):
+        lines.append("  SIMULATED DATA (truth.json beside the data): not a calibration of a physical robot")
+    return lines
 
 
 def study_summary(study) -> str:

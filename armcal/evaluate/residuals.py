@@ -18,12 +18,17 @@ def residual_unit(device_type: str) -> tuple[str, str]:
 
 def readings_residuals(problem: Problem, theta: np.ndarray, device_type: str) -> np.ndarray:
     """Predicted minus measured readings of the summarised kind, in the unit shown (spec pseudo-observations left out)."""
+    return readings_by_sample(problem, theta, device_type)[0]
+
+
+def readings_by_sample(problem: Problem, theta: np.ndarray, device_type: str) -> tuple[np.ndarray, np.ndarray]:
+    """readings_residuals, and the sample (pose) each reading belongs to."""
     kind, unit = residual_unit(device_type)
     r, _ = problem.evaluate(theta)
     residual = problem.residuals
     chosen = (np.array(residual.kind) == kind) & (residual.sample >= 0)
     values = r[chosen] * residual.sigma[chosen]
-    return values / ARCSEC if unit == "arcsec" else values
+    return (values / ARCSEC if unit == "arcsec" else values), residual.sample[chosen]
 
 
 def before_after(problem: Problem, start: np.ndarray, theta: np.ndarray, device_type: str) -> dict:

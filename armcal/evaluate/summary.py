@@ -6,6 +6,7 @@ import numpy as np
 
 from armcal.diagnose.loop import Diagnosis
 from armcal.diagnose.stage import Calibration
+from armcal.evaluate.acceptance import acceptance_block
 from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
 from armcal.evaluate.residuals import before_after, distance_before_after, improvement, readings_residuals, residual_unit
@@ -96,6 +97,7 @@ def summarize(
         noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled, "verdict": uncertainty.verdict},
         correlations=[list(c) for c in uncertainty.correlations],
         campaign=measured,
+        acceptance=acceptance_block(spec.acceptance, calibration.validation, identified.theta, device_type),
     )
 
 

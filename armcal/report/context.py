@@ -6,6 +6,7 @@ import base64
 import math
 
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
+from armcal.results.changes import ALPHA
 from armcal.units import ANGLE_UNITS, factor
 
 PLOT_TITLES = {
@@ -234,15 +235,97 @@ def _estimated_noise(noise: dict | None) -> dict | None:
             "level": f"{NOISE_CHECK_LEVEL:.0%}"}
 
 
+NOT_GIVEN = "not given in the spec"
+TRACEABILITY_ROWS = (("Maker", "maker"), ("Model", "model"), ("Serial number", "serial"), ("Last calibrated", "calibrated"),
+                     ("Its calibration certificate", "certificate"), ("Maximum permissible error (maker's statement)", "mpe"))
+STATISTICS = {
+    "validation_rms": "RMS of the held-out residuals per coordinate, calibrated model",
+    "validation_max": "largest |residual| of the held-out data per coordinate, calibrated model",
+    "validation_rms_3d": "RMS of the held-out 3D distances per pose, calibrated model",
+    "validation_max_3d": "largest held-out 3D distance of a pose, calibrated model",
+}
+SIMPLE_RULE = ("simple acceptance (ILAC-G8:2019 4.2.1): pass when the figure is at most the tolerance; its uncertainty is not "
+               "taken into account (at the limit the risk of a false pass is up to 50 %)")
+GUARDED_RULE = ("guarded acceptance (ILAC-G8:2019 4.2.3), guard band w = U: pass when the figure is at most the tolerance less U. "
+                "U = 2u (k = 2), u the Type A standard uncertainty of the RMS from the finite sample of held-out poses (poses "
+                "independent, delta method); U does not include the instrument's own calibration uncertainty (MPE above)")
+
+
+def _traceability(campaign: dict) -> list[tuple[str, str]]:
+    """The instrument's identity and calibration, each field as the spec gives it or 'not given in the spec'."""
+    given = campaign.get("traceability") or {}
+    return [(label, given.get(key) or NOT_GIVEN) for label, key in TRACEABILITY_ROWS]
+
+
+def _temperature(campaign: dict) -> str:
+    temperature = campaign["temperature"]
+    if not temperature:
+        return "not recorded (the data have no temperature column)"
+    return f"{temperature[0]:.2f} - {temperature[1]:.2f} °C (lowest - highest reading of the data's temperature column, calibration and validation data)"
+
+
+def _origin(simulated: dict | None) -> tuple[bool, str]:
+    """Whether the data are armcal's simulation, and the data's origin in words."""
+    if simulated is None:
+        return False, "not recorded in these results"
+    sets = [name for name in ("calibration", "validation") if simulated[name]]
+    if sets:
+        return True, f"SIMULATED by armcal ({' and '.join(sets)} data: the truth.json beside them names their SHA-256)"
+    return False, "measured (no truth.json of armcal simulate matches the data files)"
+
+
+def _acceptance(acceptance: dict | None) -> dict | None:
+    """The statement of conformity in words: figure, tolerance, rule, U, verdict."""
+    if acceptance is None:
+        return None
+    unit = acceptance["unit"]
+    shown = lambda value: f"{number(value)} {unit}"  # noqa: E731
+    guarded = acceptance["decision_rule"] == "guarded"
+    verdict = acceptance["verdict"].upper()
+    relation = "at most" if acceptance["verdict"] == "pass" else "above"
+    return {
+        "statistic": STATISTICS[acceptance["statistic"]],
+        "value": shown(acceptance["value"]),
+        "tolerance": shown(acceptance["tolerance"]),
+        "rule": GUARDED_RULE if guarded else SIMPLE_RULE,
+        "uncertainty": f"{shown(acceptance['expanded_uncertainty'])} (k = {acceptance['coverage_factor']:g})" if guarded else "not used (simple acceptance)",
+        "limit": shown(acceptance["acceptance_limit"]) + (" (tolerance less U)" if guarded else " (the tolerance)"),
+        "verdict": verdict,
+        "statement": f"{verdict}: the figure {shown(acceptance['value'])} is {relation} the acceptance limit {shown(acceptance['acceptance_limit'])}.",
+    }
+
+
+def _change(change: dict) -> str:
+    z = f"z = {change['z']:.1f}" if change["z"] is not None else "no uncertainty"
+    return f"{change['name']} {number(change['old'])} -> {number(change['new'])} {change['unit']} ({z})"
+
+
+def _history(results: dict) -> list[dict]:
+    """Earlier calibrations of this robot, oldest first, with the parameters changed significantly since."""
+    rows = []
+    for h in results.get("history", []):
+        validation = f"{number(h['rms_validation'])} {h['unit']}" if h["rms_validation"] is not None else "no held-out data"
+        rows.append({
+            "date": h["created"][:10],
+            "certificate": h["certificate_number"],
+            "run_id": h["run_id"] or "not recorded",
+            "status": h["status"],
+            "rms": f"{number(h['rms_calibration'])} {h['unit']} / {validation}",
+            "changes": [_change(c) for c in h["significant"]] or [f"none of {h['compared']} parameters compared"],
+        })
+    return rows
+
+
 def certificate_context(results: dict, plots: dict[str, str]) -> dict:
     """Every value the template shows, as text; ``plots`` (name -> SVG) as data URIs."""
     report, spec, robot, campaign = results["report"], results["spec"], results["robot"], results["campaign"]
     identifiability = results["identifiability"]
     noise = results["noise_check"]
     git = spec["git"]
-    temperature = campaign["temperature"]
+    simulated, origin = _origin(results.get("simulated"))
     return {
         "number": report["certificate_number"],
+        "simulated": simulated,
         "issued": results["created"][:10],
         "robot": {"name": robot["name"], "serial": robot["serial"], "convention": robot["convention"], "dof": str(robot["dof"])},
         "people": [(label, report[key]) for label, key in (("Customer", "customer"), ("Operator", "operator"), ("Location", "location")) if report[key]],
@@ -253,8 +336,13 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
             "procedure": campaign["procedure"],
             "validation_procedure": campaign["validation_procedure"] or "none",
             "samples": f"{campaign['calibration_samples']} calibration" + (f", {campaign['validation_samples']} validation" if campaign["validation_samples"] else ""),
-            "temperature": f"{temperature[0]:.2f} - {temperature[1]:.2f} degC" if temperature else "not recorded",
+            "origin": origin,
         },
+        "traceability": _traceability(campaign),
+        "temperature": _temperature(campaign),
+        "acceptance": _acceptance(results.get("acceptance")),
+        "history": _history(results),
+        "family_alpha": f"{ALPHA * 100:g} %",
         "spec": {
             "path": spec["path"],
             "sha256": spec["sha256"],

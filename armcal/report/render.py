@@ -31,6 +31,8 @@ from armcal.errors import UserError
 from armcal.fileio import write_bytes_atomic
 from armcal.output_set import check_set, replace_in_set
 from armcal.report.context import certificate_context
+from armcal.results.changes import check_same_robot
+from armcal.results.history import history_entries
 from armcal.results.model import Results
 
 PACKAGED = Path(__file__).resolve().parent.parent / "templates"
@@ -336,6 +338,18 @@ def read_results(path: Path) -> dict:
         raise UserError(f"{path}: not a results.json as armcal writes it: {'; '.join(problems[:3])}{more}") from None
 
 
+def read_earlier(paths: list[Path], serial: str, current: str) -> list[tuple[str, dict]]:
+    """Earlier results (each a results.json or a run's folder, read_results) of the robot ``serial``; another serial is a
+    UserError naming the file. ``current`` names the run they are compared with."""
+    earlier = []
+    for path in paths:
+        source = results_file(Path(path))
+        old = read_results(source)
+        check_same_robot(old["robot"]["serial"], serial, str(source), current)
+        earlier.append((str(source.resolve()), old))
+    return earlier
+
+
 def read_plots(results_path: Path, names: list[str]) -> dict[str, str]:
     """The SVG plots a results.json lists, from its folder (read_inside, PLOT_LIMIT each); a missing one is left out."""
     plots = {}
@@ -349,11 +363,15 @@ def read_plots(results_path: Path, names: list[str]) -> dict[str, str]:
     return plots
 
 
-def rerender(results_path: Path, pdf: bool = True, force: bool = False) -> list[Path]:
-    """``armcal report``: the certificate again, from results.json alone (and the plots beside it), into its output set."""
+def rerender(results_path: Path, pdf: bool = True, force: bool = False, history: list[Path] = ()) -> list[Path]:
+    """``armcal report``: the certificate again, from results.json alone (and the plots beside it), into its output set;
+    with ``history``, that section from those earlier results instead of the one results.json holds."""
     results_path = results_file(Path(results_path))
     folder = results_path.parent
     results = read_results(results_path)
+    if history:
+        earlier = read_earlier(history, results["robot"]["serial"], str(results_path))
+        results = {**results, "history": history_entries(results, earlier)}
     plots = read_plots(results_path, results["diagnosis"]["plots"])
     check_set(folder, [results_path.name, *plots])
     existing = [name for name in CERTIFICATES if (folder / name).exists()]

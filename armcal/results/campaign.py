@@ -65,7 +65,15 @@ def campaign(loaded: LoadedSpec, calibration, validation, simulated: tuple[bool,
         "calibration_samples": len(calibration),
         "validation_samples": len(validation) if validation is not None else None,
         "temperature": [float(values.min()), float(values.max())] if values is not None else None,
+        "traceability": traceability(device.instrument),
     }
+
+
+def traceability(instrument) -> dict | None:
+    """The instrument's identity and calibration as the spec gives them (device.instrument), or None."""
+    if instrument is None:
+        return None
+    return {**instrument.model_dump(), "calibrated": instrument.calibrated.isoformat() if instrument.calibrated else None}
 
 
 def report_fields(loaded: LoadedSpec, created: str) -> dict:

@@ -3,34 +3,27 @@
 A calibration is a run's results.json (or its folder), a calibrated spec (a run's calibrated.yaml,
 whose identified values carry their ``std``), or such a spec at a git revision, ``PATH@REV``
 (armcal/gitrepo.py reads the repository as files). Each parameter's change d = new - old is put in
-units of its combined standard uncertainty u = sqrt(u_old^2 + u_new^2) (the two calibrations
-independent: separate campaigns), z = d / u, with its two-sided p-value; the changes are flagged
-significant by Holm's step-down test at a family-wise ALPHA over every parameter compared, so
-that among forty unchanged parameters none is flagged by chance more often than ALPHA of the
-time. A parameter neither calibration gives an uncertainty for is compared by its change alone.
+units of its combined standard uncertainty and flagged by Holm's test (results/changes.py).
 """
 
 from __future__ import annotations
 
 import hashlib
-import math
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
-
-from scipy.stats import norm
 
 from armcal.errors import UserError
 from armcal.fileio import INPUT_LIMITS
 from armcal.gitrepo import file_at_revision
 from armcal.kinematics.params import parameter_set
 from armcal.report.render import read_results, results_file
+from armcal.results.changes import ALPHA, changes, check_same_robot
 from armcal.results.calibrated import yaml_path
 from armcal.spec import LoadedSpec, load_spec
 from armcal.spec.loader import spec_from_bytes
 from armcal.units import from_internal
 
-ALPHA = 0.01  # family-wise probability of flagging any unchanged parameter
 _CALIBRATED_BY = re.compile(r"Calibrated by armcal \S+ on (?P<created>\S+) .*?, run (?P<run>\w+)")
 
 
@@ -44,35 +37,6 @@ class Calibration:
     created: str | None
     run_id: str | None
     parameters: list[dict]  # {name, unit, value, std, free}, values in the spec's units
-
-
-@dataclass(frozen=True)
-class Change:
-    name: str
-    unit: str
-    old: float
-    new: float
-    z: float | None  # None where neither calibration gives an uncertainty
-    significant: bool = False
-
-
-def changes(old: list[dict], new: list[dict]) -> list[Change]:
-    """Every parameter either calibration left free, with its change in combined standard uncertainties, the
-    significant ones flagged by Holm's step-down test at family-wise ALPHA."""
-    before = {p["name"]: p for p in old}
-    rows = []
-    for p in new:
-        q = before.get(p["name"])
-        if q is None or not (p["free"] or q["free"]):
-            continue
-        spread = math.hypot(p["std"] or 0.0, q["std"] or 0.0)
-        rows.append(Change(p["name"], p["unit"], q["value"], p["value"], (p["value"] - q["value"]) / spread if spread > 0 else None))
-    tested = sorted((i for i, c in enumerate(rows) if c.z is not None), key=lambda i: -abs(rows[i].z))
-    for rank, i in enumerate(tested):
-        if 2.0 * norm.sf(abs(rows[i].z)) > ALPHA / (len(tested) - rank):
-            break
-        rows[i] = replace(rows[i], significant=True)
-    return rows
 
 
 def calibration(argument: str) -> Calibration:
@@ -122,8 +86,7 @@ def _when(c: Calibration) -> str:
 def compare(old_argument: str, new_argument: str) -> tuple[str, int]:
     """A plain-text table of the parameters of two calibrations of one robot and the number of significant changes."""
     old, new = calibration(old_argument), calibration(new_argument)
-    if old.serial != new.serial:
-        raise UserError(f"{new.label}: serial {new.serial} is not {old.serial} of {old.label}: compare calibrations of one robot")
+    check_same_robot(new.serial, old.serial, new.label, old.label)
     lines = [
         f"{new.name} ({new.serial}): {_when(old)} -> {_when(new)}",
         f"{'parameter':32} {'old':>14} {'new':>14} {'change':>12} {'unit':8} {'z':>7}",

@@ -216,6 +216,17 @@ class Solver(_Frozen):
     outliers: list[int]  # data file lines of samples the robust loss down-weighted
 
 
+class Traceability(_Frozen):
+    """The instrument's identity and its own calibration, as the spec gives them (device.instrument)."""
+
+    maker: str | None
+    model: str | None
+    serial: str | None
+    calibrated: str | None  # ISO date
+    certificate: str | None
+    mpe: str | None
+
+
 class Campaign(_Frozen):
     """What was measured, for the certificate."""
 
@@ -226,6 +237,7 @@ class Campaign(_Frozen):
     calibration_samples: int
     validation_samples: int | None
     temperature: list[float] | None  # min, max in degC when measured
+    traceability: Traceability | None = None  # null: the spec does not give the instrument's identity
 
 
 class ReportInfo(_Frozen):
@@ -234,6 +246,51 @@ class ReportInfo(_Frozen):
     operator: str | None
     location: str | None
     notes: str | None
+
+
+class AcceptanceResult(_Frozen):
+    """The statement of conformity: a held-out figure against the spec's tolerance (evaluate/acceptance.py)."""
+
+    statistic: Literal["validation_rms", "validation_max", "validation_rms_3d", "validation_max_3d"]
+    value: float
+    unit: str
+    tolerance: float
+    decision_rule: Literal["simple", "guarded"]
+    expanded_uncertainty: float | None  # U of the figure (guarded only)
+    coverage_factor: float | None
+    acceptance_limit: float  # the tolerance, less U when guarded
+    verdict: Literal["pass", "fail"]
+
+
+class SimulatedData(_Frozen):
+    """Whether each data file is armcal's simulation (a truth.json beside it names its SHA-256)."""
+
+    calibration: bool
+    validation: bool | None
+
+
+class ParameterChange(_Frozen):
+    name: str
+    unit: str
+    old: float
+    new: float
+    change: float
+    z: float | None  # change / sqrt(u_old^2 + u_new^2); null when neither has an uncertainty
+
+
+class HistoryEntry(_Frozen):
+    """An earlier calibration of the same robot, and the parameters that changed significantly since."""
+
+    source: str  # the results.json read
+    created: str
+    run_id: str | None
+    certificate_number: str
+    status: str
+    unit: str
+    rms_calibration: float
+    rms_validation: float | None
+    compared: int  # parameters compared
+    significant: list[ParameterChange]
 
 
 class Results(_Frozen):
@@ -257,3 +314,6 @@ class Results(_Frozen):
     correlations: list[tuple[str, str, float]]
     campaign: Campaign
     report: ReportInfo
+    acceptance: AcceptanceResult | None = None  # null: the spec gives no acceptance criterion
+    simulated: SimulatedData | None = None  # null: not recorded (results of an older armcal)
+    history: list[HistoryEntry] = []  # earlier calibrations given with --history

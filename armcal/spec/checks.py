@@ -139,6 +139,15 @@ def _shells(spec: Spec, procedure: Shells, loc: Loc) -> Iterator[Problem]:
 def _report(spec: Spec) -> Iterator[Problem]:
     if "iso9283" in spec.report.tasks and spec.report.iso9283_cube is None:
         yield ("report", "tasks"), "the iso9283 task needs report.iso9283_cube (centre x, y, z and side)"
+    acceptance = spec.acceptance
+    if acceptance is None:
+        return
+    if isinstance(spec.device, Theodolite):
+        yield ("acceptance",), "a theodolite's residuals are angles; acceptance takes a length tolerance (tracker, ball-bar, sonic digitizer)"
+    if acceptance.statistic.endswith("_3d") and not isinstance(spec.device, Tracker):
+        yield ("acceptance", "statistic"), f"{acceptance.statistic} needs measured points (a tracker); use validation_rms or validation_max"
+    if spec.data is not None and spec.data.validation is None:
+        yield ("acceptance", "statistic"), "acceptance judges held-out figures: add data.validation"
 
 
 def _data(spec: Spec) -> Iterator[Problem]:

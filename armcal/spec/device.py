@@ -12,6 +12,7 @@ tests each estimate against its declared value.
 
 from __future__ import annotations
 
+from datetime import date
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import Field, ValidationInfo, WithJsonSchema, WrapValidator, field_validator
@@ -53,9 +54,22 @@ GROUPS_HELP = (
 ESTIMATE_HELP = "estimate the declared noise sigmas from the data too, use the estimates, and test each against its declared value"
 
 
+class Instrument(SpecModel):
+    """The instrument's identity and its own calibration, for traceability (ISO/IEC 17025 7.8.4); printed as given."""
+
+    maker: str | None = Field(None, description="manufacturer")
+    model: str | None = Field(None, description="model name")
+    serial: str | None = Field(None, description="the instrument's serial number")
+    calibrated: date | None = Field(None, description="date of the instrument's last calibration (YYYY-MM-DD)")
+    certificate: str | None = Field(None, description="number of the instrument's calibration certificate")
+    mpe: str | None = Field(None, description='maximum permissible error as its maker states it, with its unit, e.g. "±(15 µm + 6 µm/m)"')
+
+
 class NoiseEstimation(SpecModel):
-    """What every device shares: which noise sigmas are estimated from the data, and by which groups
-    (each device declares ``noise``, ``noise_groups`` and ``estimate_noise``)."""
+    """What every device shares: its identity (``instrument``), which noise sigmas are estimated from the data, and by
+    which groups (each device declares ``noise``, ``noise_groups`` and ``estimate_noise``)."""
+
+    instrument: Instrument | None = Field(None, description="the instrument's identity and calibration, printed on the certificate")
 
     def noise_fields(self) -> tuple[str, ...]:
         """The spec fields that hold this device's noise sigmas."""

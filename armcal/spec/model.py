@@ -10,7 +10,7 @@ from armcal.spec.base import SpecModel
 from armcal.spec.device import Device
 from armcal.spec.procedure import Procedure
 from armcal.spec.robot import Robot
-from armcal.spec.sections import Data, Diagnose, Effect, Fit, Report, Simulate
+from armcal.spec.sections import Acceptance, Data, Diagnose, Effect, Fit, Report, Simulate
 
 
 class Spec(SpecModel):
@@ -27,3 +27,4 @@ class Spec(SpecModel):
     fit: Fit = Fit()
     diagnose: Diagnose = Diagnose()
     report: Report = Report()
+    acceptance: Acceptance | None = Field(None, description="a tolerance on a held-out figure: the certificate states pass or fail")

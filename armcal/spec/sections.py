@@ -272,6 +272,31 @@ class IsoCube(SpecModel):
     side: Length = Field(gt=0.0, description="side of the cube")
 
 
+ACCEPTANCE_STATISTICS = ("validation_rms", "validation_max", "validation_rms_3d", "validation_max_3d")
+
+
+class Acceptance(SpecModel):
+    """A tolerance the calibrated robot must meet on the held-out data, and the decision rule (ILAC-G8:2019)."""
+
+    tolerance: Length = Field(gt=0.0, description="upper limit of the statistic")
+    statistic: Literal[ACCEPTANCE_STATISTICS] = Field(  # type: ignore[valid-type]
+        "validation_rms",
+        description="the held-out figure judged, calibrated model: validation_rms / validation_max (per coordinate), "
+        "validation_rms_3d / validation_max_3d (3D distance per pose, tracker)",
+    )
+    decision_rule: Literal["simple", "guarded"] = Field(
+        "simple",
+        description="simple: pass when the figure is at most the tolerance; guarded: when the figure plus its expanded "
+        "uncertainty U (k = 2) is (RMS statistics only)",
+    )
+
+    @model_validator(mode="after")
+    def _guarded_needs_rms(self) -> "Acceptance":
+        if self.decision_rule == "guarded" and "_rms" not in self.statistic:
+            raise ValueError(f"guarded acceptance needs the figure's uncertainty, which armcal computes for RMS statistics only, not {self.statistic}; use decision_rule: simple")
+        return self
+
+
 class Report(SpecModel):
     """Certificate fields, and the evaluation tasks it shows (with simulated data, whose truth is known)."""
 

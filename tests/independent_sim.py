@@ -349,4 +349,5 @@ def write_campaign(folder: pathlib.Path, robot: str, device: str, effect: str, s
                        "visible_fraction": rms_visible / rms_raw,
                        "noncentrality": len(signature) * (rms_visible / noise) ** 2,
                        "expected_statistic": len(signature) * v2 / (1 + v2)},
-            "truth": truth}
+            "truth": truth,
+            "geometry": geom, "hidden": (eff, amp)}  # readings(geometry, device, q, keys, *hidden): the true robot

@@ -342,6 +342,7 @@ def export(
     typer.echo(f"wrote {out} ({fmt})")
     if exported.left_out:
         typer.echo(f"  not held by {fmt} (calibrated.yaml keeps them): {', '.join(exported.left_out)}")
+        typer.echo(f"  a program carries them all: armcal compensate {source} --targets TARGETS.csv --out COMMANDS.csv (docs/deploy.md)")
 
 
 @app.command(cls=Command)

@@ -114,3 +114,11 @@ def test_the_cli_writes_the_file_and_replaces_nothing_without_force(tmp_path, fm
     assert first.returncode == 0, first.stderr
     again = armcal_cli("export", str(SPECS / "ur10.yaml"), "--format", fmt, "--out", str(out))
     assert again.returncode == 1 and "--force" in again.stderr + again.stdout
+
+
+def test_the_terminal_names_what_is_left_out_and_offers_compensation(tmp_path):
+    path = _spec(tmp_path, [("  base: {rz: {value: 180, vary: false}}", "  base: {rz: {value: 180, vary: false}}\n  tool: {z: 55.0}")])
+    result = armcal_cli("export", path, "--format", "ur-calibration", "--out", tmp_path / "k.yaml")
+    assert result.returncode == 0, result.stderr
+    assert "not held by ur-calibration (calibrated.yaml keeps them): the tool's offset from tool0 (x 0, y 0, z 55 mm" in result.stdout
+    assert f"a program carries them all: armcal compensate {path} --targets TARGETS.csv --out COMMANDS.csv" in result.stdout

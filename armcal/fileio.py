@@ -65,6 +65,8 @@ def refuse_replacing(targets, inputs, force: bool) -> None:
     for target in map(Path, targets):
         if target.resolve() in sources:
             raise UserError(f"{target} is an input of this command; it is never replaced (choose another --out)")
+        if target.is_dir():
+            raise UserError(f"{target} is a folder; give the name of the file to write")
         if target.exists() and not force:
             raise UserError(f"{target} exists; use --force to replace it")
 

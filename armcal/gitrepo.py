@@ -21,7 +21,8 @@ from armcal.errors import UserError
 OBJECT_ID = re.compile(r"[0-9a-f]{40}|[0-9a-f]{64}")  # SHA-1 or SHA-256 repositories
 UNREADABLE = (OSError, ValueError, IndexError, struct.error, zlib.error)
 _MAX_OBJECT = 1 << 26  # bytes; commits and trees are far smaller
-_MAX_CHAIN = 1000  # symbolic refs, pack deltas and ancestors followed before giving up
+_MAX_CHAIN = 1000  # symbolic refs, tags and pack deltas followed before giving up
+_MAX_INDEX = 1 << 28  # bytes of a pack index (about ten million objects)
 _PACK_TYPES = {1: "commit", 2: "tree", 3: "blob", 4: "tag"}
 _OFS_DELTA, _REF_DELTA = 6, 7
 
@@ -57,6 +58,11 @@ def resolve_head(git_dir: Path, common: Path, name: str = "HEAD") -> str | None:
     return None
 
 
+def tree_path(path: Path, work_tree: Path) -> list[bytes]:
+    """The components of a work tree's file's path in the repository's trees."""
+    return [os.fsencode(p) for p in (*path.absolute().parent.resolve().relative_to(work_tree).parts, path.name)]
+
+
 def file_at_revision(path: Path, revision: str) -> bytes:
     """The bytes of ``path``, a file of a git work tree, in the commit ``revision`` names: HEAD, a branch, a tag,
     a commit id or its unique prefix (4 hex digits or more), each optionally followed by ~N (N-th first-parent
@@ -74,7 +80,7 @@ def file_at_revision(path: Path, revision: str) -> bytes:
         commit = _named_commit(store, git_dir, common, match["name"], f"{path}@{revision}")
         for step, count in re.findall(r"([~^])(\d*)", match["steps"]):
             commit = _ancestor(store, commit, step, int(count or 1), f"{path}@{revision}")
-        parts = [os.fsencode(p) for p in (*path.absolute().parent.resolve().relative_to(work_tree).parts, path.name)]
+        parts = tree_path(path, work_tree)
         blob = blob_at(store, commit, parts)
         if blob is None:
             raise UserError(f"{path}@{revision}: the commit {commit.hex()[:12]} has no file {'/'.join(p.decode() for p in parts)}")
@@ -185,7 +191,7 @@ class ObjectStore:
         alternates = objects / "info" / "alternates"
         extra = read_bytes(alternates).decode().splitlines() if alternates.is_file() else []
         self.folders = [objects, *((objects / line).resolve() for line in extra if line and not line.startswith("#"))]
-        self.packs = [(read_bytes(i), i.with_suffix(".pack")) for f in self.folders for i in sorted((f / "pack").glob("*.idx"))]
+        self.packs = [(read_bytes(i, _MAX_INDEX), i.with_suffix(".pack")) for f in self.folders for i in sorted((f / "pack").glob("*.idx"))]
         config = common / "config"
         sha256 = config.is_file() and re.search(rb"objectformat\s*=\s*sha256", read_bytes(config), re.IGNORECASE)
         self.id_size = 32 if sha256 else 20
@@ -266,6 +272,8 @@ def _unpack(index: bytes, pack: Path, offset: int, id_size: int) -> tuple[str, b
             else:
                 raise ValueError(f"pack entry type {kind}")
             deltas.append(_inflate(stream))
+            if sum(map(len, deltas)) > _MAX_OBJECT:
+                raise ValueError("delta chain too large")
         else:
             raise ValueError("delta chain too long")
     for delta in reversed(deltas):
@@ -343,9 +351,12 @@ def _open(path: Path) -> io.BufferedReader:
     return stream
 
 
-def read_bytes(path: Path) -> bytes:
-    """A regular file's bytes."""
+def read_bytes(path: Path, limit: int = _MAX_OBJECT) -> bytes:
+    """A regular file's bytes, refused beyond ``limit``."""
     with _open(path) as stream:
-        return stream.read()
+        data = stream.read(limit + 1)
+    if len(data) > limit:
+        raise ValueError(f"{path} is larger than {limit} bytes")
+    return data
 
 

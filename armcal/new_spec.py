@@ -8,6 +8,8 @@ fixture, the two-theodolite network), scaled by the robot's size against the PUM
 
 from __future__ import annotations
 
+import json
+
 from pathlib import Path
 
 from armcal.robot_library import LibraryRobot
@@ -35,8 +37,8 @@ def new_spec_text(entry: LibraryRobot, device: str, stem: str) -> str:
         f"# `armcal simulate {stem}.yaml --out .` then `armcal run {stem}.yaml` (docs/robots.md).",
         "armcal: 1",
         "data:",
-        f"  calibration: {stem}-calibration.csv",
-        *([f"  validation: {stem}-validation.csv"] if validation else []),
+        f"  calibration: {json.dumps(stem + '-calibration.csv')}",
+        *([f"  validation: {json.dumps(stem + '-validation.csv')}"] if validation else []),
         "simulate:   # a simulated true robot for a rehearsal (Stone 7.1-7.8 manufacturing errors)",
         "  seed: 1",
         *_robot_lines(entry),

@@ -1,8 +1,9 @@
-"""The robot library: nominal robot sections of common industrial robots, in specs/robots/.
+"""The robot library: nominal robot sections of common industrial robots, in armcal/robots/ (specs/robots/ links
+to it), shipped with the package.
 
 A library file is YAML with two keys: ``home`` (the maker's home configuration, one value per
 joint in the robot's units) and ``robot`` (a spec's robot section, every number's source in a
-comment). The folder is found beside the package, whatever the current directory.
+comment). The folder is inside the package (package data), whatever the current directory.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from armcal.errors import UserError
 from armcal.spec.loader import parse_yaml, validation_context
 from armcal.spec.robot import Robot, RobotBase
 
-LIBRARY = Path(__file__).resolve().parents[1] / "specs" / "robots"
+LIBRARY = Path(__file__).resolve().parent / "robots"
 
 
 @dataclass(frozen=True)
@@ -40,7 +41,7 @@ def library_robot(name: str) -> LibraryRobot:
     """The library robot called ``name`` (case and '-' vs '_' do not matter); a UserError naming the choices otherwise."""
     known = names()
     if not known:
-        raise UserError(f"the robot library is not there ({LIBRARY}); it ships with armcal's source tree")
+        raise UserError(f"the robot library is not there ({LIBRARY}); reinstall armcal")
     key = name.strip().lower().replace("-", "_").replace(" ", "_")
     if key not in known:
         close = difflib.get_close_matches(key, known, n=1, cutoff=0.5)

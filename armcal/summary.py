@@ -9,6 +9,7 @@ from armcal.evaluate.grid import RADIAL
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.parallel import parallel_axes
 from armcal.kinematics.transforms import pose_from_matrix
+from armcal.results.model import TASK_TITLES
 from armcal.spec import LoadedSpec
 from armcal.spec.robot import joint_kind
 from armcal.units import from_internal, to_internal
@@ -131,10 +132,32 @@ def run_summary(outcome) -> str:
         lines.append(f"  flat direction at the solution: singular value {flat.ratio:.2g} of the largest, along {moved}")
     if r.identifiability.unidentifiable:
         lines.append(f"  not identifiable from these data: {', '.join(r.identifiability.unidentifiable)}")
+    lines += task_lines(r)
     lines += conformity_lines(r)
     written = ["results.json", "calibrated.yaml", "certificate.html"] + (["certificate.pdf"] if (outcome.out_dir / "certificate.pdf").exists() else [])
     lines.append(f"  wrote {', '.join(written)} in {outcome.out_dir}")
     return "\n".join(lines)
+
+
+def task_lines(r) -> list[str]:
+    """Each evaluation task the spec asks for: where it stood and what calibration gained, or why it was skipped."""
+    lines = []
+    for task, name in TASK_TITLES.items():
+        block = r.evaluation.get(task)
+        if block is None:
+            continue
+        if "skipped" in block:
+            lines.append(f"  {name}: skipped: {block['skipped']}")
+        elif task == "grid_task":
+            factors = [row["improvement_factor"] for row in block["indices"]]
+            finite = [f for f in factors if f is not None and np.isfinite(f)]  # an index calibrated to exactly 0 has none
+            median = f"median improvement x{np.median(finite):.3g}" if finite else "no finite improvement factor"
+            lines.append(f"  {name}: {len(factors)} indices, {median}; {block['placement']}")
+        else:
+            cube, worst = block["cube"], lambda key: max(row[key] for row in block["poses"])  # noqa: E731
+            lines.append(f"  {name} (side {cube['side']:.4g} {cube['unit']}): AP at P1-P5 at most {worst('design'):.4g} -> "
+                         f"{worst('calibrated'):.4g} {cube['unit']}; {cube['placement']}")
+    return lines
 
 
 def conformity_lines(r) -> list[str]:

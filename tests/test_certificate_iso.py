@@ -8,6 +8,7 @@ import shutil
 
 import numpy as np
 import pytest
+from scipy.stats import t as student_t
 from conftest import ROOT, armcal_cli, copy_example, shipped_specs
 
 from armcal.errors import SpecError
@@ -88,8 +89,8 @@ def test_the_instruments_identity_is_printed_as_given(measured):
 
 
 def test_guarded_acceptance_against_an_independent_rms_and_jackknife_uncertainty(measured):
-    """The held-out RMS and its U (k = 2) recomputed from residuals.csv: U by the jackknife over poses (not the delta
-    method armcal uses); the verdict from the tolerance and those numbers."""
+    """The held-out RMS and its U recomputed from residuals.csv: u by the jackknife over poses (not the delta method
+    armcal uses), k Student's t for 95 % over the poses (scipy); the verdict from the tolerance and those numbers."""
     folder, results, _ = measured
     acceptance = results["acceptance"]
     poses = list(_validation_residuals_mm(folder / "out").values())
@@ -98,9 +99,11 @@ def test_guarded_acceptance_against_an_independent_rms_and_jackknife_uncertainty
     leave_one_out = np.array([rms(poses[:i] + poses[i + 1 :]) for i in range(len(poses))])
     jackknife = np.sqrt((len(poses) - 1) / len(poses) * np.sum((leave_one_out - leave_one_out.mean()) ** 2))
     assert acceptance["value"] == pytest.approx(value, rel=1e-6) == results["residuals"]["validation"]["after"]["rms"]
-    assert acceptance["expanded_uncertainty"] == pytest.approx(2 * jackknife, rel=0.03)
+    k = student_t.ppf(0.975, len(poses) - 1)
+    assert acceptance["coverage_factor"] == pytest.approx(k, rel=1e-9)
+    assert acceptance["expanded_uncertainty"] == pytest.approx(k * jackknife, rel=0.03)
     assert acceptance["tolerance"] == pytest.approx(TOLERANCE_MM) and acceptance["decision_rule"] == "guarded"
-    expected = "pass" if value + 2 * jackknife <= TOLERANCE_MM else "fail"
+    expected = "pass" if value + k * jackknife <= TOLERANCE_MM else "fail"
     assert acceptance["verdict"] == expected
     text = " ".join(_pdf_pages(folder / "out" / "certificate.pdf"))
     assert f"{expected.upper()}: the figure {value:.4f} mm" in text and "guarded acceptance (ILAC-G8:2019 4.2.3)" in text

@@ -118,14 +118,6 @@ def test_missing_file_is_a_user_error():
     assert result.returncode == 1 and "cannot read the spec" in result.stderr and "Traceback" not in result.stderr
 
 
-def test_an_iso_task_needs_its_cube(tmp_path):
-    text = (SPECS / "puma560_dh.yaml").read_text().replace("report:\n", "report:\n  tasks: [iso9283]\n")
-    path = tmp_path / "iso.yaml"
-    path.write_text(text)
-    [(_, _, field, message)] = _problems(path)
-    assert field == "report.tasks" and "needs report.iso9283_cube" in message
-
-
 @pytest.mark.parametrize(
     "addition, field, message",
     [

@@ -2,9 +2,10 @@
 
 Simple acceptance (ILAC-G8 4.2.1) passes when the figure is at most the tolerance. Guarded
 acceptance (4.2.3, guard band w = U) passes when the figure plus its expanded uncertainty
-U = 2u is: u is the Type A standard uncertainty of an RMS from the finite sample of
+U = k u is: u is the Type A standard uncertainty of an RMS from the finite sample of n
 held-out poses (the poses independent, each pose's squared residuals summed), by the delta
-method on the ratio estimator. A maximum has no such uncertainty, so it takes simple
+method on the ratio estimator, and k the two-sided 95 % quantile of Student's t with n - 1
+degrees of freedom (GUM G.3: 2.0 from about 60 poses, 12.7 with two). A maximum has no such uncertainty, so it takes simple
 acceptance only. U leaves out the instrument's own calibration uncertainty (its MPE).
 """
 
@@ -13,12 +14,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.stats import t as student_t
 
 from armcal.errors import UserError
 from armcal.evaluate.residuals import distance_errors, readings_by_sample, residual_unit
 from armcal.identify.uncertainty import residual_stats
 
-COVERAGE = 2.0
+COVERAGE = 0.95  # the level of confidence of the expanded uncertainty
 
 
 def rms_uncertainty(squares: np.ndarray, counts: np.ndarray) -> float:
@@ -31,19 +33,20 @@ def rms_uncertainty(squares: np.ndarray, counts: np.ndarray) -> float:
     return float(math.sqrt(variance) / (2 * math.sqrt(ratio))) if ratio > 0 else 0.0
 
 
-def figures(validation, theta: np.ndarray, device_type: str) -> dict[str, tuple[float, float | None]]:
-    """Each held-out statistic of the calibrated model: (value, standard uncertainty or None)."""
+def figures(validation, theta: np.ndarray, device_type: str) -> dict[str, tuple[float, float | None, int]]:
+    """Each held-out statistic of the calibrated model: (value, standard uncertainty or None, poses behind it)."""
     values, samples = readings_by_sample(validation, theta, device_type)
     stats = residual_stats(values)
     _, slot = np.unique(samples, return_inverse=True)
+    poses = int(slot.max()) + 1 if len(slot) else 0
     found = {
-        "validation_rms": (stats["rms"], rms_uncertainty(np.bincount(slot, values**2), np.bincount(slot).astype(float))),
-        "validation_max": (stats["max_abs"], None),
+        "validation_rms": (stats["rms"], rms_uncertainty(np.bincount(slot, values**2), np.bincount(slot).astype(float)), poses),
+        "validation_max": (stats["max_abs"], None, poses),
     }
     distances = distance_errors(validation, theta)
     if distances is not None and len(distances):
-        found["validation_rms_3d"] = (float(np.sqrt(np.mean(distances**2))), rms_uncertainty(distances**2, np.ones(len(distances))))
-        found["validation_max_3d"] = (float(np.max(distances)), None)
+        found["validation_rms_3d"] = (float(np.sqrt(np.mean(distances**2))), rms_uncertainty(distances**2, np.ones(len(distances))), len(distances))
+        found["validation_max_3d"] = (float(np.max(distances)), None, len(distances))
     return found
 
 
@@ -54,11 +57,12 @@ def acceptance_block(acceptance, validation, theta: np.ndarray, device_type: str
     found = figures(validation, theta, device_type) if validation is not None else {}
     if acceptance.statistic not in found:
         raise UserError(f"acceptance.statistic: the run has no {acceptance.statistic} (it needs validation data{', of points' if '_3d' in acceptance.statistic else ''})")
-    value, u = found[acceptance.statistic]
+    value, u, poses = found[acceptance.statistic]
     guarded = acceptance.decision_rule == "guarded"
     if guarded and not math.isfinite(u):
         raise UserError("acceptance.decision_rule: guarded acceptance needs at least two held-out poses for the figure's uncertainty")
-    expanded = COVERAGE * u if guarded else None
+    k = float(student_t.ppf(0.5 + COVERAGE / 2, poses - 1)) if guarded else None
+    expanded = k * u if guarded else None
     limit = acceptance.tolerance - expanded if guarded else acceptance.tolerance
     return {
         "statistic": acceptance.statistic,
@@ -67,7 +71,7 @@ def acceptance_block(acceptance, validation, theta: np.ndarray, device_type: str
         "tolerance": acceptance.tolerance,
         "decision_rule": acceptance.decision_rule,
         "expanded_uncertainty": expanded,
-        "coverage_factor": COVERAGE if guarded else None,
+        "coverage_factor": k,
         "acceptance_limit": limit,
         "verdict": "pass" if value <= limit else "fail",
     }

@@ -110,21 +110,33 @@ def iso9283_evaluation(kinematics, p_design, p_calibrated, truth, units, cube, f
 
     AP is the distance between the commanded and the attained position (one cycle:
     the simulated robot repeats perfectly); orientation as Rot(y, 180) Rot(z, 90) of 7.2.1.
+    The cube stands where the spec puts it, or where procedures/placement.py finds the
+    largest one the robot reaches.
     """
     from armcal.kinematics.transforms import compose, rot_y, rot_z
+    from armcal.procedures.placement import Placement, Workspace, place_cube
     from armcal.procedures.tasks import iso9283_cube
     from armcal.units import from_internal
 
-    desired = iso9283_cube([cube.x, cube.y, cube.z], cube.side, compose(rot_y(np.pi), rot_z(np.pi / 2))[:3, :3])
-    control = TaskControl.plan(kinematics, desired, p_design, frame, teach)
+    if cube is not None:
+        centre = np.array([cube.x, cube.y, cube.z])
+        rotation = compose(rot_y(np.pi), rot_z(np.pi / 2))[:3, :3]
+        placed = Placement(iso9283_cube(centre, cube.side, rotation), centre, cube.side, "as the spec gives it (report.iso9283_cube)")
+    else:
+        placed = place_cube(Workspace(kinematics, p_design, frame))
+        if placed is None:
+            return {"skipped": "no ISO 9283 cube is reachable by this robot's design model: not even a small one near the centre of its workspace"}
+    control = TaskControl.plan(kinematics, placed.frames, p_design, frame, teach)
     if control is None:
-        return {"skipped": "the ISO 9283 cube is not reachable by this robot's design model"}
+        return {"skipped": "the ISO 9283 cube the spec gives (report.iso9283_cube) is not reachable by this robot's design model"}
     rows = []
     for k, (d, c) in enumerate(zip(*control.reached(truth, p_calibrated)), start=1):
-        ap_d, ap_c = (float(np.linalg.norm(x[:3, 3] - desired[k - 1, :3, 3])) for x in (d, c))
+        ap_d, ap_c = (float(np.linalg.norm(x[:3, 3] - placed.frames[k - 1, :3, 3])) for x in (d, c))
         rows.append({"pose": f"P{k}", "unit": units.length, "design": from_internal(ap_d, "length", units.length),
                      "calibrated": from_internal(ap_c, "length", units.length), "improvement_factor": ap_d / ap_c if ap_c else float("inf")})
-    return {**control.describe(), "poses": rows}
+    length = lambda v: from_internal(float(v), "length", units.length)  # noqa: E731
+    where = {"centre": [length(v) for v in placed.centre], "side": length(placed.size), "unit": units.length, "placement": placed.how}
+    return {**control.describe(), "cube": where, "poses": rows}
 
 
 def taught(reached: np.ndarray, desired: np.ndarray) -> np.ndarray:
@@ -147,12 +159,18 @@ def grid_evaluation(
 
     Each index's improvement factor is |design error| / |calibrated error| (Tables 6-10, 6-11).
     """
+    from armcal.procedures.placement import Workspace, place_grid
     from armcal.procedures.tasks import grid_task
     from armcal.units import from_internal
 
     control = TaskControl.plan(kinematics, grid_task(), p_design, frame, teach)
-    if control is None:
-        return {"skipped": "the grid of Table 7-1 is not reachable by this robot's design model"}
+    placement = "Table 7-1 (Stone 7.2.1), where the PUMA 560 reaches it"
+    if control is None:  # another robot: the grid in its own workspace
+        placed = place_grid(Workspace(kinematics, p_design, frame))
+        if placed is None:
+            return {"skipped": "Stone's grid (Table 7-1, scaled to the robot's reach) is reachable by this robot's design model nowhere near the centre of its workspace"}
+        control = TaskControl.plan(kinematics, placed.frames, p_design, frame, teach)
+        placement = placed.how
     reached_design, reached_calibrated = control.reached(truth, p_calibrated)
     design = grid_indices(reached_design, control.desired)
     calibrated = grid_indices(reached_calibrated, control.desired)
@@ -170,13 +188,15 @@ def grid_evaluation(
                 "improvement_factor": abs(d) / abs(c) if c else float("inf"),
             }
         )
-    return {**control.describe(), "indices": rows}
+    return {**control.describe(), "placement": placement, "indices": rows}
 
 
 def evaluation_tasks(spec, kinematics, calibrated, truth: dict | None) -> dict:
-    """The tasks the spec's report asks for, when the data's truth is known (simulation)."""
+    """The tasks the spec's report asks for, evaluated where the data's truth is known (simulation), else skipped
+    with the reason."""
     if truth is None:
-        return {}
+        why = "it needs the true robot, known for simulated data only (the truth.json armcal simulate writes beside them)"
+        return {task: {"skipped": why} for task in spec.report.tasks}
     recorded, names = set(truth.get("parameters", {})), set(kinematics.parameters.names)
     added = {f"{axes.name}.beta" for axes in parallel_axes(spec.robot) if axes.beta_added}  # at 0 in a record made before
     if not recorded <= names or names - recorded - added:

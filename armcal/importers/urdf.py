@@ -102,12 +102,14 @@ def read_urdf(path: Path, base: str, tip: str) -> UrdfChain:
             pending = pending @ (inverse(origin) if upwards else origin)
             merged.append(name)
             continue
+        if kind is None:
+            raise document.error(element, f"joint '{name}' has no type (revolute, continuous, prismatic or fixed)")
         if kind not in MOVING:
             raise document.error(element, f"joint '{name}' is {kind}; armcal imports revolute, continuous, prismatic and fixed joints")
         if element.find("mimic") is not None:
             raise document.error(element, f"joint '{name}' mimics another joint; armcal's joints are independent (mimic joints are not imported)")
         axis_element = element.find("axis")
-        axis = document.numbers(axis_element, "xyz", 3) if axis_element is not None else np.array([1.0, 0.0, 0.0])
+        axis = document.numbers(axis_element, "xyz", 3, default="1 0 0") if axis_element is not None else np.array([1.0, 0.0, 0.0])  # URDF's default
         if np.linalg.norm(axis) < 1e-9:
             raise document.error(axis_element, f"joint '{name}': the axis is zero")
         S = _z_onto(axis / np.linalg.norm(axis))

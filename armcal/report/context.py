@@ -7,6 +7,7 @@ import math
 
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.results.changes import ALPHA
+from armcal.results.model import TASK_TITLES
 from armcal.units import ANGLE_UNITS, factor
 
 PLOT_TITLES = {
@@ -184,7 +185,14 @@ def _iso(results: dict) -> dict | None:
     if not iso or "poses" not in iso:
         return None
     rows = [{"pose": r["pose"], "unit": r["unit"], "design": number(r["design"]), "calibrated": number(r["calibrated"]), "factor": number(r["improvement_factor"], 1)} for r in iso["poses"]]
-    return {"rows": rows, "tcp": iso["tool_centre_point"], "frame": iso["task_frame"]}
+    cube = iso.get("cube")  # results before armcal placed the cube have none
+    where = f"centre ({', '.join(number(v) for v in cube['centre'])}) {cube['unit']}, side {number(cube['side'])} {cube['unit']}: {cube['placement']}" if cube else ""
+    return {"rows": rows, "tcp": iso["tool_centre_point"], "frame": iso["task_frame"], "cube": where}
+
+
+def _skipped_tasks(results: dict) -> list[dict]:
+    """The evaluation tasks the spec asked for that were not evaluated, with the reason."""
+    return [{"name": TASK_TITLES[task], "why": block["skipped"]} for task, block in results["evaluation"].items() if task in TASK_TITLES and "skipped" in block]
 
 
 def _plots(results: dict, svgs: dict[str, str]) -> list[dict]:
@@ -239,16 +247,16 @@ NOT_GIVEN = "not given in the spec"
 TRACEABILITY_ROWS = (("Maker", "maker"), ("Model", "model"), ("Serial number", "serial"), ("Last calibrated", "calibrated"),
                      ("Its calibration certificate", "certificate"), ("Maximum permissible error (maker's statement)", "mpe"))
 STATISTICS = {
-    "validation_rms": "RMS of the held-out residuals per coordinate, calibrated model",
-    "validation_max": "largest |residual| of the held-out data per coordinate, calibrated model",
+    "validation_rms": "RMS of the held-out residuals per reading (a point's coordinate, a bar length, a range), calibrated model",
+    "validation_max": "largest |residual| of a held-out reading (a point's coordinate, a bar length, a range), calibrated model",
     "validation_rms_3d": "RMS of the held-out 3D distances per pose, calibrated model",
     "validation_max_3d": "largest held-out 3D distance of a pose, calibrated model",
 }
 SIMPLE_RULE = ("simple acceptance (ILAC-G8:2019 4.2.1): pass when the figure is at most the tolerance; its uncertainty is not "
                "taken into account (at the limit the risk of a false pass is up to 50 %)")
 GUARDED_RULE = ("guarded acceptance (ILAC-G8:2019 4.2.3), guard band w = U: pass when the figure is at most the tolerance less U. "
-                "U = 2u (k = 2), u the Type A standard uncertainty of the RMS from the finite sample of held-out poses (poses "
-                "independent, delta method); U does not include the instrument's own calibration uncertainty (MPE above)")
+                "U = k u, u the Type A standard uncertainty of the RMS from the finite sample of n held-out poses (poses "
+                "independent, delta method), k Student's t for 95 % with n - 1 degrees of freedom; U does not include the instrument's own calibration uncertainty (MPE above)")
 
 
 def _traceability(campaign: dict) -> list[tuple[str, str]]:
@@ -369,6 +377,8 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
         "grid": _grid(results),
         "grid_tcp": (results["evaluation"].get("grid_task") or {}).get("tool_centre_point", ""),
         "grid_frame": (results["evaluation"].get("grid_task") or {}).get("task_frame", ""),
+        "grid_placement": (results["evaluation"].get("grid_task") or {}).get("placement", ""),
+        "skipped_tasks": _skipped_tasks(results),
         "features": _features(results),
         "iso": _iso(results),
         "diagnosis": _diagnosis(results),

@@ -22,6 +22,7 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
 from armcal import __version__
 from armcal.effects.library import from_spec, to_spec_dict
+from armcal.kinematics.params import parameter_set
 from armcal.spec.model import Spec
 from armcal.units import from_internal
 
@@ -83,6 +84,21 @@ def _set(root: CommentedMap, path: list, value: float, held: bool = False, std: 
         node[last] = value
 
 
+def _drop_earlier_std(root: CommentedMap, spec: Spec, identified: set[str]) -> None:
+    """Remove the ``std`` an earlier calibration wrote on the chain's parameters this run did not identify."""
+    for name in parameter_set(spec.robot).names:
+        if name in identified:
+            continue
+        node = root
+        try:
+            for key in yaml_path(name, spec):
+                node = node[key]
+        except (KeyError, IndexError, TypeError):  # a parameter the spec leaves out
+            continue
+        if isinstance(node, dict):
+            node.pop("std", None)
+
+
 def _unshared(mapping: CommentedMap) -> CommentedMap:
     """A copy of an anchored mapping, in the same style, that no alias refers to."""
     copy = CommentedMap(mapping.items())
@@ -111,6 +127,7 @@ def calibrated_yaml(
     shown = lambda value, kind: float(f"{from_internal(value, kind, spec.robot.units.of(kind)):.{SIGNIFICANT}g}")  # noqa: E731
     for name, (value, kind, held, std) in identified.items():
         _set(root, yaml_path(name, spec), shown(value, kind), held, None if std is None else float(f"{std:.3g}"))
+    _drop_earlier_std(root, spec, set(identified))
     if added_effects:
         effects = root.setdefault("effects", CommentedSeq())
         for effect, values in added_effects:
@@ -163,7 +180,8 @@ def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
             continue
         redundant = entry.role != "effect" and entry.free and entry.name not in base and calibrated.identified.features is None
         if value != entry.nominal or entry.name in base or redundant:
-            identified[entry.name] = (float(value), entry.kind, redundant, None if redundant else std[entry.name])
+            written = None if redundant or entry.role == "effect" else std[entry.name]  # an effect's field is a plain number
+            identified[entry.name] = (float(value), entry.kind, redundant, written)
         held += [entry.name] if redundant else []
     new_effects = [(e, {p.name.rsplit(".", 1)[1]: (float(theta[index(p.name)]), p.kind) for p in e.parameters()}) for e in added]
     noise = _plain_sigmas(loaded.spec, calibrated.noise.spec_values()) if calibrated.noise else None

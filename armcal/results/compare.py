@@ -8,7 +8,6 @@ units of its combined standard uncertainty and flagged by Holm's test (results/c
 
 from __future__ import annotations
 
-import hashlib
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,16 +41,20 @@ class Calibration:
 def calibration(argument: str) -> Calibration:
     """The calibration an argument names: a results.json or a run's folder, a calibrated spec, or ``SPEC@REV``."""
     path = Path(argument)
-    if path.is_dir() or path.suffix == ".json":
+    try:
+        exists, folder = path.exists(), path.is_dir()
+    except OSError:  # a name no file can have (too long): a revision, or nothing
+        exists = folder = False
+    if folder or path.suffix == ".json":
         results = read_results(results_file(path))
         robot = results["robot"]
         return Calibration(argument, robot["name"], robot["serial"], results["created"], results.get("run_id"), results["parameters"])
-    if not path.exists() and "@" in argument:
+    if not exists and "@" in argument:
         file, _, revision = argument.rpartition("@")
         raw = file_at_revision(Path(file), revision)
         if len(raw) > INPUT_LIMITS["spec"]:
             raise UserError(f"{argument}: larger than a spec may be ({INPUT_LIMITS['spec'] // 1024} KiB)")
-        return _from_spec(spec_from_bytes(raw, Path(argument), hashlib.sha256(raw).hexdigest()), argument)
+        return _from_spec(spec_from_bytes(raw, Path(argument)), argument)
     return _from_spec(load_spec(path), argument)
 
 
@@ -99,6 +102,6 @@ def compare(old_argument: str, new_argument: str) -> tuple[str, int]:
     tested = sum(c.z is not None for c in found)
     lines.append(
         f"{significant} significant change(s) among {tested} parameters with uncertainties (z = change / sqrt(u_old^2 + u_new^2); "
-        f"Holm's test, family-wise {ALPHA * 100:g} %: an unchanged robot shows one by chance in {1 / ALPHA:.0f} comparisons)"
+        f"Holm's test, family-wise {ALPHA * 100:g} %: an unchanged robot shows one by chance in at most 1 of {1 / ALPHA:.0f} comparisons)"
     )
     return "\n".join(lines) + "\n", significant

@@ -6,6 +6,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict
 
+TASK_TITLES = {"grid_task": "Grid-touching task (Stone 7.2.1)", "iso9283": "ISO 9283 positional accuracy"}  # evaluation's tasks
+
 
 class _Frozen(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)

@@ -5,11 +5,10 @@ The repository is read as files (armcal/gitrepo.py): git itself is never run.
 
 from __future__ import annotations
 
-import os
 from datetime import datetime, timezone
 from pathlib import Path
 
-from armcal.gitrepo import UNREADABLE, ObjectStore, blob_at, blob_id, common_dir, read_bytes, repository, resolve_head
+from armcal.gitrepo import UNREADABLE, ObjectStore, blob_at, blob_id, common_dir, read_bytes, repository, resolve_head, tree_path
 
 
 def git_info(path: Path) -> dict | None:
@@ -37,8 +36,7 @@ def git_info(path: Path) -> dict | None:
 def _unchanged(spec: Path, work_tree: Path, common: Path, commit: str) -> bool:
     """Whether the spec file's bytes are the blob the commit holds at its path."""
     try:
-        parts = [os.fsencode(p) for p in (*spec.parent.resolve().relative_to(work_tree).parts, spec.name)]
-        committed = blob_at(ObjectStore(common), bytes.fromhex(commit), parts)
+        committed = blob_at(ObjectStore(common), bytes.fromhex(commit), tree_path(spec, work_tree))
         content = read_bytes(spec)
     except UNREADABLE:
         return False

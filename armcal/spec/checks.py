@@ -137,8 +137,6 @@ def _shells(spec: Spec, procedure: Shells, loc: Loc) -> Iterator[Problem]:
 
 
 def _report(spec: Spec) -> Iterator[Problem]:
-    if "iso9283" in spec.report.tasks and spec.report.iso9283_cube is None:
-        yield ("report", "tasks"), "the iso9283 task needs report.iso9283_cube (centre x, y, z and side)"
     acceptance = spec.acceptance
     if acceptance is None:
         return
@@ -148,6 +146,8 @@ def _report(spec: Spec) -> Iterator[Problem]:
         yield ("acceptance", "statistic"), f"{acceptance.statistic} needs measured points (a tracker); use validation_rms or validation_max"
     if spec.data is not None and spec.data.validation is None:
         yield ("acceptance", "statistic"), "acceptance judges held-out figures: add data.validation"
+    if spec.diagnose.enabled and spec.diagnose.holdout == "validation":
+        yield ("acceptance",), "acceptance judges held-out figures, but with diagnose.holdout: validation the diagnosis chose effects with them: use holdout kfold"
 
 
 def _data(spec: Spec) -> Iterator[Problem]:

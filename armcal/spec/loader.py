@@ -54,11 +54,10 @@ class _Document:
 def load_spec(path: str | Path) -> LoadedSpec:
     """Read, parse and validate a spec file; raise SpecError listing every problem."""
     path = Path(path)
-    raw = read_input(path, "spec")
-    return spec_from_bytes(raw, path, hashlib.sha256(raw).hexdigest())
+    return spec_from_bytes(read_input(path, "spec"), path)
 
 
-def spec_from_bytes(raw: bytes, path: Path, sha256: str) -> LoadedSpec:
+def spec_from_bytes(raw: bytes, path: Path) -> LoadedSpec:
     """Parse and validate a spec's bytes (read from ``path``, or from git as ``path@rev``); SpecError lists every problem."""
     try:
         text = raw.decode("utf-8")
@@ -66,7 +65,7 @@ def spec_from_bytes(raw: bytes, path: Path, sha256: str) -> LoadedSpec:
         raise SpecError([Issue(path, None, None, "", f"the file is not UTF-8 text (byte {exc.start})")]) from None
     document = parse_yaml(text, path)
     spec = validate(document, path)
-    return LoadedSpec(spec=spec, path=path, text=text, sha256=sha256)
+    return LoadedSpec(spec=spec, path=path, text=text, sha256=hashlib.sha256(raw).hexdigest())
 
 
 def parse_yaml(text: str, path: Path) -> _Document:

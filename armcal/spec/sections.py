@@ -287,7 +287,7 @@ class Acceptance(SpecModel):
     decision_rule: Literal["simple", "guarded"] = Field(
         "simple",
         description="simple: pass when the figure is at most the tolerance; guarded: when the figure plus its expanded "
-        "uncertainty U (k = 2) is (RMS statistics only)",
+        "uncertainty U (95 %: k from Student's t over the held-out poses) is (RMS statistics only)",
     )
 
     @model_validator(mode="after")
@@ -300,8 +300,14 @@ class Acceptance(SpecModel):
 class Report(SpecModel):
     """Certificate fields, and the evaluation tasks it shows (with simulated data, whose truth is known)."""
 
-    tasks: list[Literal["grid_task", "iso9283"]] = Field(["grid_task"], description="Stone's grid task (7.2.1), the ISO 9283 cube")
-    iso9283_cube: IsoCube | None = Field(None, description="where the ISO 9283 cube stands (needed by the iso9283 task)")
+    tasks: list[Literal["grid_task", "iso9283"]] = Field(
+        ["grid_task", "iso9283"],
+        description="Stone's grid task (7.2.1; Table 7-1 where the robot reaches it, else scaled to the robot and placed in its "
+        "workspace), the ISO 9283 cube",
+    )
+    iso9283_cube: IsoCube | None = Field(
+        None, description="where the ISO 9283 cube stands; left out, armcal places the largest cube the robot reaches near its workspace's centre"
+    )
     certificate_number: str | None = Field(None, description="default: ARMCAL-<serial>-<date>-<spec hash>")
     customer: str | None = Field(None, description="printed on the certificate")
     operator: str | None = Field(None, description="who calibrated, printed with the signature lines")

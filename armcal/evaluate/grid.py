@@ -114,28 +114,28 @@ def iso9283_evaluation(kinematics, p_design, p_calibrated, truth, units, cube, f
     largest one the robot reaches.
     """
     from armcal.kinematics.transforms import compose, rot_y, rot_z
-    from armcal.procedures.placement import Placement, Workspace, place_cube
+    from armcal.procedures.placement import Placement, placed
     from armcal.procedures.tasks import iso9283_cube
     from armcal.units import from_internal
 
     if cube is not None:
         centre = np.array([cube.x, cube.y, cube.z])
         rotation = compose(rot_y(np.pi), rot_z(np.pi / 2))[:3, :3]
-        placed = Placement(iso9283_cube(centre, cube.side, rotation), centre, cube.side, "as the spec gives it (report.iso9283_cube)")
+        stands = Placement(iso9283_cube(centre, cube.side, rotation), centre, cube.side, "as the spec gives it (report.iso9283_cube)")
     else:
-        placed = place_cube(Workspace(kinematics, p_design, frame))
-        if placed is None:
+        stands = placed("iso9283", kinematics, p_design, frame)
+        if stands is None:
             return {"skipped": "no ISO 9283 cube is reachable by this robot's design model: not even a small one near the centre of its workspace"}
-    control = TaskControl.plan(kinematics, placed.frames, p_design, frame, teach)
+    control = TaskControl.plan(kinematics, stands.frames, p_design, frame, teach)
     if control is None:
         return {"skipped": "the ISO 9283 cube the spec gives (report.iso9283_cube) is not reachable by this robot's design model"}
     rows = []
     for k, (d, c) in enumerate(zip(*control.reached(truth, p_calibrated)), start=1):
-        ap_d, ap_c = (float(np.linalg.norm(x[:3, 3] - placed.frames[k - 1, :3, 3])) for x in (d, c))
+        ap_d, ap_c = (float(np.linalg.norm(x[:3, 3] - stands.frames[k - 1, :3, 3])) for x in (d, c))
         rows.append({"pose": f"P{k}", "unit": units.length, "design": from_internal(ap_d, "length", units.length),
                      "calibrated": from_internal(ap_c, "length", units.length), "improvement_factor": ap_d / ap_c if ap_c else float("inf")})
     length = lambda v: from_internal(float(v), "length", units.length)  # noqa: E731
-    where = {"centre": [length(v) for v in placed.centre], "side": length(placed.size), "unit": units.length, "placement": placed.how}
+    where = {"centre": [length(v) for v in stands.centre], "side": length(stands.size), "unit": units.length, "placement": stands.how}
     return {**control.describe(), "cube": where, "poses": rows}
 
 
@@ -159,18 +159,18 @@ def grid_evaluation(
 
     Each index's improvement factor is |design error| / |calibrated error| (Tables 6-10, 6-11).
     """
-    from armcal.procedures.placement import Workspace, place_grid
+    from armcal.procedures.placement import placed
     from armcal.procedures.tasks import grid_task
     from armcal.units import from_internal
 
     control = TaskControl.plan(kinematics, grid_task(), p_design, frame, teach)
     placement = "Table 7-1 (Stone 7.2.1), where the PUMA 560 reaches it"
     if control is None:  # another robot: the grid in its own workspace
-        placed = place_grid(Workspace(kinematics, p_design, frame))
-        if placed is None:
+        stands = placed("grid_task", kinematics, p_design, frame)
+        if stands is None:
             return {"skipped": "Stone's grid (Table 7-1, scaled to the robot's reach) is reachable by this robot's design model nowhere near the centre of its workspace"}
-        control = TaskControl.plan(kinematics, placed.frames, p_design, frame, teach)
-        placement = placed.how
+        control = TaskControl.plan(kinematics, stands.frames, p_design, frame, teach)
+        placement = stands.how
     reached_design, reached_calibrated = control.reached(truth, p_calibrated)
     design = grid_indices(reached_design, control.desired)
     calibrated = grid_indices(reached_calibrated, control.desired)

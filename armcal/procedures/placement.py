@@ -119,3 +119,16 @@ def place_cube(space: Workspace) -> Placement | None:
             how = f"the largest cube the robot reaches (corners and P1..P5) near its workspace's centre, placed by armcal; orientation {label}"
             return Placement(iso9283_cube(centres[k], low[k], rotation), centres[k], float(low[k]), how)
     return None
+
+
+_PLACED: dict[tuple, Placement | None] = {}  # per process: a design's placement serves every campaign and run of it
+
+
+def placed(task: str, kinematics, p: np.ndarray, frame: str | None) -> Placement | None:
+    """place_grid ("grid_task") or place_cube ("iso9283") for the design (chain, parameter values, frame), computed
+    once per process: the placement depends on nothing else."""
+    key = (task, kinematics.joint_names, tuple(kinematics.parameters.names), kinematics.limits.tobytes(), np.asarray(p, dtype=float).tobytes(), frame)
+    if key not in _PLACED:
+        _PLACED[key] = (place_grid if task == "grid_task" else place_cube)(Workspace(kinematics, p, frame))
+    return _PLACED[key]
+

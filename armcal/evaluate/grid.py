@@ -152,6 +152,39 @@ def index_kind(name: str) -> str:
     return "angle" if ("orientation" in name or "perpendicularity" in name) else "length"
 
 
+TABLE_7_1 = "Table 7-1 (Stone 7.2.1), where the PUMA 560 reaches it"
+GRID_UNREACHABLE = ("Stone's grid is reachable by this robot's design model neither at Table 7-1 nor, scaled to its reach "
+                    "(or to 3/4 or 1/2 of that), anywhere near the centre of its workspace")
+
+
+def grid_control(kinematics, p_design: np.ndarray, frame: str | None = None, teach: bool = False):
+    """Stone's grid solved with the design model (7.2.2): (TaskControl, Placement), or None where it is not reached.
+
+    The grid stands at Table 7-1 where the design model reaches it there (the PUMA's grid, as Stone's), else where
+    procedures/placement.py scales and places it in the robot's own workspace (memoized per design and process).
+    """
+    from armcal.procedures.placement import Placement, placed
+    from armcal.procedures.tasks import grid_task
+
+    control = TaskControl.plan(kinematics, grid_task(), p_design, frame, teach)
+    if control is not None:
+        vertices = control.desired[:, :3, 3]
+        return control, Placement(control.desired, (vertices.min(axis=0) + vertices.max(axis=0)) / 2, 1.0, TABLE_7_1)
+    stands = placed("grid_task", kinematics, p_design, frame)  # another robot: the grid in its own workspace
+    control = None if stands is None else TaskControl.plan(kinematics, stands.frames, p_design, frame, teach)
+    return None if control is None else (control, stands)
+
+
+def grid_placement(stands, units) -> dict:
+    """Where the grid stood, in the spec's length unit: ``placement`` (how), ``scaled`` (False only at Table 7-1),
+    ``scale`` (1: Table 7-1's 60 x 30 x 50 cm), ``centre`` of its box in the robot base frame, ``unit``."""
+    from armcal.units import from_internal
+
+    length = lambda v: round(from_internal(float(v), "length", units.length), 6) + 0.0  # noqa: E731 (no -0.0, no 1e-14)
+    return {"placement": stands.how, "scaled": stands.how != TABLE_7_1, "scale": stands.size,
+            "centre": [length(v) for v in stands.centre], "unit": units.length}
+
+
 def grid_evaluation(
     kinematics, p_design: np.ndarray, p_calibrated: np.ndarray, truth, units, frame: str | None = None, teach: bool = False
 ) -> dict:
@@ -159,18 +192,12 @@ def grid_evaluation(
 
     Each index's improvement factor is |design error| / |calibrated error| (Tables 6-10, 6-11).
     """
-    from armcal.procedures.placement import placed
-    from armcal.procedures.tasks import grid_task
     from armcal.units import from_internal
 
-    control = TaskControl.plan(kinematics, grid_task(), p_design, frame, teach)
-    placement = "Table 7-1 (Stone 7.2.1), where the PUMA 560 reaches it"
-    if control is None:  # another robot: the grid in its own workspace
-        stands = placed("grid_task", kinematics, p_design, frame)
-        if stands is None:
-            return {"skipped": "Stone's grid (Table 7-1, scaled to the robot's reach) is reachable by this robot's design model nowhere near the centre of its workspace"}
-        control = TaskControl.plan(kinematics, stands.frames, p_design, frame, teach)
-        placement = stands.how
+    solved = grid_control(kinematics, p_design, frame, teach)
+    if solved is None:
+        return {"skipped": GRID_UNREACHABLE}
+    control, stands = solved
     reached_design, reached_calibrated = control.reached(truth, p_calibrated)
     design = grid_indices(reached_design, control.desired)
     calibrated = grid_indices(reached_calibrated, control.desired)
@@ -188,7 +215,7 @@ def grid_evaluation(
                 "improvement_factor": abs(d) / abs(c) if c else float("inf"),
             }
         )
-    return {**control.describe(), "placement": placement, "indices": rows}
+    return {**control.describe(), **grid_placement(stands, units), "indices": rows}
 
 
 def evaluation_tasks(spec, kinematics, calibrated, truth: dict | None) -> dict:

@@ -22,7 +22,7 @@ import numpy as np
 from armcal import __version__
 from armcal.errors import UserError
 from armcal.fileio import output_folder
-from armcal.evaluate.grid import grid_indices, grid_placement, index_kind
+from armcal.evaluate.grid import ORIENTATION, grid_indices, grid_placement, index_kind, unobserved_orientation
 from armcal.evaluate.montecarlo import ChunkResult, check_points, chunks, run_chunk
 from armcal.evaluate.study_statistics import index_statistics, trend
 from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, variant
@@ -91,6 +91,7 @@ def montecarlo(
         "backend": f"dask ({scheduler})" if scheduler else f"{workers} local worker process{'es' if workers > 1 else ''}",
         "elapsed_s": round(elapsed, 3),
         "grid": grid,
+        "unobserved": {"indices": list(ORIENTATION), "reason": why} if (why := unobserved_orientation(spec)) else None,
         "sweep": _describe(sweep, spec),
         "points": [
             {"value": sweep.shown[k] if sweep else None, "converged": int(converged[k].sum()), "indices": statistics[k]}

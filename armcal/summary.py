@@ -201,6 +201,8 @@ def study_summary(study) -> str:
             f" orientations {t['orientation_slope']:.2f}, radial {t['radial_slope']:.2f});"
             f" {t['source']} found {t['expected_slope']:g}"
         )
+    if s.get("unobserved"):
+        lines.append(f"  absolute orientation indices (vertices 1/4/5/8), calibrated: {s['unobserved']['reason']}")
     lines.append(f"  wrote {', '.join(p.name for p in study.files)} in {study.out_dir}")
     return "\n".join(lines)
 

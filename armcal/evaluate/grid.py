@@ -23,6 +23,7 @@ DIAGONALS = [(1, 4), (2, 3), (5, 8), (6, 7)]
 MIDPOINTS = {1: 9, 4: 10, 5: 11, 8: 12}  # line -> its midpoint vertex
 CORNERS = (1, 4, 5, 8)
 RADIAL = tuple(f"vertex {k} radial" for k in CORNERS)  # the indices of Stone's Figures 7-4 to 7-8
+ORIENTATION = tuple(f"vertex {k} orientation" for k in CORNERS)  # absolute: the tool's orientation in the task frame
 
 
 def _angle(R: np.ndarray) -> float:
@@ -247,3 +248,31 @@ def measured_point(spec) -> str | None:
     """The one robot target a point-measuring instrument saw, if that is all it saw (the tasks' tool centre point)."""
     targets = getattr(spec.device, "targets", None)
     return targets[0] if targets and len(targets) == 1 and spec.device.type in ("tracker", "theodolite") else None
+
+
+def unobserved_orientation(spec) -> str | None:
+    """Why the data cannot tell the calibrated model the task's absolute orientation (the four ``vertex k orientation``
+    indices), or None when they can.
+
+    The tool centre point's link must be seen as a frame: orientation readings (a tracker's 6-DOF probe), or three or
+    more measured points on that link. With one point (a reflector, a theodolite's ball, Stone's sparker on link 6, a
+    single ball-bar sphere) a turn of the link's frame about it (the simulated robot's error freedoms after its last
+    link, Stone 7.1-7.8), with two a turn about the line through them, is absorbed by the points' offsets and stays at
+    the design model's value: calibrated control keeps that part of the manufacturing error (about sigma_o; the
+    joint axes the points sweep are identified, hence a reduction, not a calibration). The positions, lengths, perpendicularities
+    and the relative orientations (vertex k against vertex 1: a constant turn of the last link cancels) are predicted.
+    """
+    device = spec.device
+    if device.type == "tracker" and device.orientation:
+        return None
+    seen = getattr(device, "targets", None) or getattr(device, "spheres", None) or getattr(spec.procedure, "targets", None) or list(spec.robot.targets)
+    point = measured_point(spec)
+    link = spec.robot.targets[point].link if point else spec.robot.dof
+    on_link = [name for name in seen if name in spec.robot.targets and spec.robot.targets[name].link == link]
+    if len(on_link) >= 3:
+        return None
+    count = f"{len(on_link)} measured point{'s' if len(on_link) != 1 else ''} ({', '.join(on_link)})" if on_link else "no measured point"
+    turn = ("the link's frame is", "a turn of the link's frame about that point is", "a turn of the link's frame about the line through them is")[len(on_link)]
+    return (f"the instrument sees {count} on link {link} (the {'target ' + point if point else 'tool'}'s) and no orientation: "
+            f"{turn} not observed, so calibrated control keeps that part of the manufacturing error; "
+            f"these indices do not measure the calibration")

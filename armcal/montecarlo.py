@@ -22,7 +22,7 @@ import numpy as np
 from armcal import __version__
 from armcal.errors import UserError
 from armcal.fileio import output_folder
-from armcal.evaluate.grid import grid_indices, index_kind
+from armcal.evaluate.grid import ORIENTATION, grid_indices, grid_placement, index_kind, unobserved_orientation
 from armcal.evaluate.montecarlo import ChunkResult, check_points, chunks, run_chunk
 from armcal.evaluate.study_statistics import index_statistics, trend
 from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, variant
@@ -66,7 +66,8 @@ def montecarlo(
     sweep = parse_sweep(sweeps[0], spec) if sweeps else None
     points = [variant(spec, sweep.variable, value) for value in sweep.values] if sweep else [spec]
     seed = (spec.simulate.seed if spec.simulate else 0) if seed is None else seed
-    check_points(points, folder)
+    first = check_points(points, folder)  # the grid, solved where the study's robots will be sent
+    grid = {**grid_placement(first.grid, spec.robot.units), **first.control.describe()}
     workers = workers or default_workers()
     size = max(1, min(25, math.ceil(runs * len(points) / (4 * workers))))
     total, done = runs * len(points), [0]
@@ -89,6 +90,8 @@ def montecarlo(
         "seed": seed,
         "backend": f"dask ({scheduler})" if scheduler else f"{workers} local worker process{'es' if workers > 1 else ''}",
         "elapsed_s": round(elapsed, 3),
+        "grid": grid,
+        "unobserved": {"indices": list(ORIENTATION), "reason": why} if (why := unobserved_orientation(spec)) else None,
         "sweep": _describe(sweep, spec),
         "points": [
             {"value": sweep.shown[k] if sweep else None, "converged": int(converged[k].sum()), "indices": statistics[k]}

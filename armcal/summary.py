@@ -180,6 +180,9 @@ def study_summary(study) -> str:
     s = study.summary
     sweep = s["sweep"]
     lines = [f"Monte-Carlo study: {s['runs']} robots per point, {s['method']}, {s['backend']}, {s['elapsed_s']:.1f} s"]
+    grid = s["grid"]
+    centre = ", ".join(f"{v:.4g}" for v in grid["centre"])
+    lines.append(f"  grid: centre ({centre}) {grid['unit']}, scale {grid['scale']:.3g}; {grid['placement']}")
     radial = lambda point, controller: [r[controller]["std"] for r in point["indices"] if r["index"] in RADIAL]  # noqa: E731
     unit = s["points"][0]["indices"][0]["unit"]
     header = f"  {sweep['variable'] + ' (' + sweep['unit'] + ')' if sweep else 'point':>24s}  radial error std ({unit}), vertices 1/4/5/8: design | calibrated"
@@ -198,6 +201,8 @@ def study_summary(study) -> str:
             f" orientations {t['orientation_slope']:.2f}, radial {t['radial_slope']:.2f});"
             f" {t['source']} found {t['expected_slope']:g}"
         )
+    if s.get("unobserved"):
+        lines.append(f"  absolute orientation indices (vertices 1/4/5/8), calibrated: {s['unobserved']['reason']}")
     lines.append(f"  wrote {', '.join(p.name for p in study.files)} in {study.out_dir}")
     return "\n".join(lines)
 

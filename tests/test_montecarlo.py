@@ -73,8 +73,10 @@ def test_a_larger_target_radius_sharpens_the_orientation_indices(study):
 
 
 def test_calibrated_control_beats_design_control_on_every_position_index(study):
-    point = study(None).summary["points"][0]
+    summary = study(None).summary
+    point = summary["points"][0]
     assert point["converged"] == RUNS
+    assert summary["grid"]["scaled"] is False and summary["grid"]["centre"] == [0.0, 55.0, 55.0]  # Stone's Table 7-1, as he ran it
     for row in point["indices"]:
         if row["index"].endswith("radial"):
             assert row["calibrated"]["std"] < row["design"]["std"] / 2, row["index"]

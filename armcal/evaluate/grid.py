@@ -23,6 +23,7 @@ DIAGONALS = [(1, 4), (2, 3), (5, 8), (6, 7)]
 MIDPOINTS = {1: 9, 4: 10, 5: 11, 8: 12}  # line -> its midpoint vertex
 CORNERS = (1, 4, 5, 8)
 RADIAL = tuple(f"vertex {k} radial" for k in CORNERS)  # the indices of Stone's Figures 7-4 to 7-8
+ORIENTATION = tuple(f"vertex {k} orientation" for k in CORNERS)  # absolute: the tool's orientation in the task frame
 
 
 def _angle(R: np.ndarray) -> float:
@@ -152,6 +153,39 @@ def index_kind(name: str) -> str:
     return "angle" if ("orientation" in name or "perpendicularity" in name) else "length"
 
 
+TABLE_7_1 = "Table 7-1 (Stone 7.2.1), where the PUMA 560 reaches it"
+GRID_UNREACHABLE = ("Stone's grid is reachable by this robot's design model neither at Table 7-1 nor, scaled to its reach "
+                    "(or to 3/4 or 1/2 of that), anywhere near the centre of its workspace")
+
+
+def grid_control(kinematics, p_design: np.ndarray, frame: str | None = None, teach: bool = False):
+    """Stone's grid solved with the design model (7.2.2): (TaskControl, Placement), or None where it is not reached.
+
+    The grid stands at Table 7-1 where the design model reaches it there (the PUMA's grid, as Stone's), else where
+    procedures/placement.py scales and places it in the robot's own workspace (memoized per design and process).
+    """
+    from armcal.procedures.placement import Placement, placed
+    from armcal.procedures.tasks import grid_task
+
+    control = TaskControl.plan(kinematics, grid_task(), p_design, frame, teach)
+    if control is not None:
+        vertices = control.desired[:, :3, 3]
+        return control, Placement(control.desired, (vertices.min(axis=0) + vertices.max(axis=0)) / 2, 1.0, TABLE_7_1)
+    stands = placed("grid_task", kinematics, p_design, frame)  # another robot: the grid in its own workspace
+    control = None if stands is None else TaskControl.plan(kinematics, stands.frames, p_design, frame, teach)
+    return None if control is None else (control, stands)
+
+
+def grid_placement(stands, units) -> dict:
+    """Where the grid stood, in the spec's length unit: ``placement`` (how), ``scaled`` (False only at Table 7-1),
+    ``scale`` (1: Table 7-1's 60 x 30 x 50 cm), ``centre`` of its box in the robot base frame, ``unit``."""
+    from armcal.units import from_internal
+
+    length = lambda v: round(from_internal(float(v), "length", units.length), 6) + 0.0  # noqa: E731 (no -0.0, no 1e-14)
+    return {"placement": stands.how, "scaled": stands.how != TABLE_7_1, "scale": stands.size,
+            "centre": [length(v) for v in stands.centre], "unit": units.length}
+
+
 def grid_evaluation(
     kinematics, p_design: np.ndarray, p_calibrated: np.ndarray, truth, units, frame: str | None = None, teach: bool = False
 ) -> dict:
@@ -159,18 +193,12 @@ def grid_evaluation(
 
     Each index's improvement factor is |design error| / |calibrated error| (Tables 6-10, 6-11).
     """
-    from armcal.procedures.placement import placed
-    from armcal.procedures.tasks import grid_task
     from armcal.units import from_internal
 
-    control = TaskControl.plan(kinematics, grid_task(), p_design, frame, teach)
-    placement = "Table 7-1 (Stone 7.2.1), where the PUMA 560 reaches it"
-    if control is None:  # another robot: the grid in its own workspace
-        stands = placed("grid_task", kinematics, p_design, frame)
-        if stands is None:
-            return {"skipped": "Stone's grid (Table 7-1, scaled to the robot's reach) is reachable by this robot's design model nowhere near the centre of its workspace"}
-        control = TaskControl.plan(kinematics, stands.frames, p_design, frame, teach)
-        placement = stands.how
+    solved = grid_control(kinematics, p_design, frame, teach)
+    if solved is None:
+        return {"skipped": GRID_UNREACHABLE}
+    control, stands = solved
     reached_design, reached_calibrated = control.reached(truth, p_calibrated)
     design = grid_indices(reached_design, control.desired)
     calibrated = grid_indices(reached_calibrated, control.desired)
@@ -188,7 +216,7 @@ def grid_evaluation(
                 "improvement_factor": abs(d) / abs(c) if c else float("inf"),
             }
         )
-    return {**control.describe(), "placement": placement, "indices": rows}
+    return {**control.describe(), **grid_placement(stands, units), "indices": rows}
 
 
 def evaluation_tasks(spec, kinematics, calibrated, truth: dict | None) -> dict:
@@ -220,3 +248,31 @@ def measured_point(spec) -> str | None:
     """The one robot target a point-measuring instrument saw, if that is all it saw (the tasks' tool centre point)."""
     targets = getattr(spec.device, "targets", None)
     return targets[0] if targets and len(targets) == 1 and spec.device.type in ("tracker", "theodolite") else None
+
+
+def unobserved_orientation(spec) -> str | None:
+    """Why the data cannot tell the calibrated model the task's absolute orientation (the four ``vertex k orientation``
+    indices), or None when they can.
+
+    The tool centre point's link must be seen as a frame: orientation readings (a tracker's 6-DOF probe), or three or
+    more measured points on that link. With one point (a reflector, a theodolite's ball, Stone's sparker on link 6, a
+    single ball-bar sphere) a turn of the link's frame about it (the simulated robot's error freedoms after its last
+    link, Stone 7.1-7.8), with two a turn about the line through them, is absorbed by the points' offsets and stays at
+    the design model's value: calibrated control keeps that part of the manufacturing error (about sigma_o; the
+    joint axes the points sweep are identified, hence a reduction, not a calibration). The positions, lengths, perpendicularities
+    and the relative orientations (vertex k against vertex 1: a constant turn of the last link cancels) are predicted.
+    """
+    device = spec.device
+    if device.type == "tracker" and device.orientation:
+        return None
+    seen = getattr(device, "targets", None) or getattr(device, "spheres", None) or getattr(spec.procedure, "targets", None) or list(spec.robot.targets)
+    point = measured_point(spec)
+    link = spec.robot.targets[point].link if point else spec.robot.dof
+    on_link = [name for name in seen if name in spec.robot.targets and spec.robot.targets[name].link == link]
+    if len(on_link) >= 3:
+        return None
+    count = f"{len(on_link)} measured point{'s' if len(on_link) != 1 else ''} ({', '.join(on_link)})" if on_link else "no measured point"
+    turn = ("the link's frame is", "a turn of the link's frame about that point is", "a turn of the link's frame about the line through them is")[len(on_link)]
+    return (f"the instrument sees {count} on link {link} (the {'target ' + point if point else 'tool'}'s) and no orientation: "
+            f"{turn} not observed, so calibrated control keeps that part of the manufacturing error; "
+            f"these indices do not measure the calibration")

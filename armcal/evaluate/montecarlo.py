@@ -2,9 +2,12 @@
 
 Robot i of a study is drawn from the i-th child of SeedSequence(seed) (Stone's manufacturing-error model 7.1-7.8
 generalised, simulate/truth.py), measured by the spec's procedure with the
-instrument's noise (7.9), identified by the spec's method, and sent to the 34
-grid vertices of Table 7-1 under design-model control (7.2.2) and under control
-with the identified model (7.2.3). The statistics of the 34 indices over the
+instrument's noise (7.9), identified by the spec's method, and sent to the 12
+grid vertices under design-model control (7.2.2) and under control with the
+identified model (7.2.3); the 34 indices are computed from the reached frames.
+The grid stands at Table 7-1 where the design model reaches it (the PUMA: Stone's
+own study), else scaled and placed in the robot's workspace as `armcal run` places
+it (evaluate/grid.grid_control, procedures/placement.py). The statistics of the 34 indices over the
 robots (mean, standard deviation) are Stone's output; a sweep repeats the study
 at several values of one input (sweeps.py) with the same robots (the same seeds:
 common random numbers, so a trend is not masked by drawing other robots).
@@ -24,11 +27,10 @@ import numpy as np
 from armcal.devices import device_model
 from armcal.diagnose.stage import calibration_problem
 from armcal.errors import UserError
-from armcal.evaluate.grid import TaskControl, grid_indices, measured_point
+from armcal.evaluate.grid import GRID_UNREACHABLE, grid_control, grid_indices, measured_point
 from armcal.identify.feature_fit import feature_parameters
 from armcal.identify.fit import fit
 from armcal.identify.problem import combined_parameters
-from armcal.procedures.tasks import grid_task
 from armcal.simulate.campaign import CampaignSimulator
 from armcal.simulate.truth import TrueRobot
 from armcal.spec.model import Spec
@@ -65,10 +67,10 @@ class RobotStudy:
         self.fit_device = device_model(spec, mode)
         free = {e.name for e in self.fit_device.parameters.entries if e.free}
         teach = any(name.startswith("robot_base.") for name in free)
-        control = TaskControl.plan(kinematics, grid_task(), kinematics.parameters.nominal, measured_point(spec), teach)
-        if control is None:
-            raise UserError("the grid of Table 7-1 is not reachable by this robot's design model; a Monte-Carlo study needs it")
-        self.control = control
+        solved = grid_control(kinematics, kinematics.parameters.nominal, measured_point(spec), teach)
+        if solved is None:
+            raise UserError(f"{GRID_UNREACHABLE}; a Monte-Carlo study needs it")
+        self.control, self.grid = solved
         self.design = None  # the base set, decided at the first robot's start and kept for the others
 
     def robot(self, seed: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -134,8 +136,10 @@ def chunks(points: list[Spec], spec_dir: Path, runs: int, seed: int, size: int) 
     ]
 
 
-def check_points(points: list[Spec], spec_dir: Path) -> None:
-    """Build the studies here first, so a user error is said before any work is sent out."""
-    _study(points[0], spec_dir)  # also solves the grid: the design model is the same at every point
+def check_points(points: list[Spec], spec_dir: Path) -> RobotStudy:
+    """Build the studies here first, so a user error is said before any work is sent out; the first point's study
+    (its grid stands where every point's does: a sweep changes the measurements, not the design model)."""
+    first = _study(points[0], spec_dir)  # also solves the grid
     for spec in points[1:]:
         CampaignSimulator(spec, spec_dir, validation=False)
+    return first

@@ -65,7 +65,8 @@ def spread(summary: dict) -> str:
                 stds = [point["indices"][i][controller]["std"] for i in rows]
                 axis.plot(stds, positions, marker=marker, ls="none", ms=3, alpha=0.4 + 0.6 * (k + 1) / len(summary["points"]),
                           color="0.55" if controller == "design" else "black", label=f"{controller}{label}" if k in (0, len(summary["points"]) - 1) else None)
-        axis.set_yticks(positions, [names[i] for i in rows], fontsize=6)
+        unobserved = set((summary.get("unobserved") or {}).get("indices", ()))  # the data cannot calibrate these (montecarlo.json says why)
+        axis.set_yticks(positions, [names[i] + (" (not observed)" if names[i] in unobserved else "") for i in rows], fontsize=6)
         axis.set_xscale("log")
         axis.set_xlabel(f"std over {summary['runs']} robots ({summary['points'][0]['indices'][rows[0]]['unit']})")
         axis.legend(frameon=False, fontsize=6)

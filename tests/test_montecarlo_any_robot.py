@@ -1,0 +1,94 @@
+"""`armcal montecarlo` for any robot and device (issue 17, item 3): the grid stands at Table 7-1 where the design
+model reaches it (the PUMA: Stone's own study, tests/test_montecarlo.py), else where `armcal run` places it.
+
+Oracles from outside the study: the design model's forward kinematics at the study's design-control joints give the
+grid's frames (1e-4 mm, the inverse kinematics' tolerance) within the joint limits; Table 7-1's box is centred at
+(0, 55, 55) cm; data that identify the robot leave smaller errors than the design model under calibrated control; the
+same seed gives the same robots. Which absolute orientation indices a device's data cannot calibrate follows from
+what it observes on the tool centre point's link (evaluate/grid.unobserved_orientation's docstring).
+"""
+
+import numpy as np
+import pytest
+from conftest import ROOT
+from test_task_placement import SCARA
+
+from armcal.errors import UserError
+from armcal.evaluate.grid import ORIENTATION, RADIAL, unobserved_orientation
+from armcal.evaluate.montecarlo import RobotStudy
+from armcal.montecarlo import montecarlo
+from armcal.spec import load_spec
+
+HIDDEN_HARMONIC = ROOT / "examples" / "hidden_harmonic" / "spec.yaml"
+UR10 = ROOT / "specs" / "ur10.yaml"
+
+
+@pytest.fixture(scope="module")
+def scara(tmp_path_factory):
+    spec = tmp_path_factory.mktemp("scara") / "spec.yaml"
+    spec.write_text(SCARA)
+    return spec
+
+
+def _means(summary: dict, controller: str, names) -> np.ndarray:
+    rows = {row["index"]: row for row in summary["points"][0]["indices"]}
+    return np.array([abs(rows[name][controller]["mean"]) for name in names])
+
+
+def test_a_scara_gets_the_grid_placed_in_its_workspace_and_reached(scara, tmp_path):
+    summary = montecarlo(scara, 4, out_dir=tmp_path / "a", workers=1).summary
+    grid = summary["grid"]
+    assert grid["scaled"] and grid["unit"] == "mm" and "placed by armcal" in grid["placement"]
+    assert grid["scale"] == pytest.approx(0.5 * 640 / 865, abs=0.01)  # half its reach over the PUMA's (the full size does not fit)
+    loaded = load_spec(scara)
+    study = RobotStudy(loaded.spec, loaded.path.parent)  # the study's own design-control solution, checked by forward kinematics
+    chain, control = study.simulator.kinematics, study.control
+    limits = chain.limits
+    assert ((control.q_design >= limits[:, 0] - 1e-9) & (control.q_design <= limits[:, 1] + 1e-9)).all()
+    np.testing.assert_allclose(chain.target_poses("reflector", control.q_design), control.desired, atol=1e-4)
+    vertices = control.desired[:, :3, 3]
+    np.testing.assert_allclose((vertices.min(axis=0) + vertices.max(axis=0)) / 2, grid["centre"], atol=1e-5)
+    np.testing.assert_allclose(np.ptp(vertices, axis=0), grid["scale"] * np.array([600.0, 300.0, 500.0]), rtol=1e-9)
+    assert summary["points"][0]["converged"] == 4
+    assert (_means(summary, "calibrated", RADIAL) < _means(summary, "design", RADIAL) / 3).all()
+    assert summary["unobserved"]["indices"] == list(ORIENTATION) and "1 measured point (reflector)" in summary["unobserved"]["reason"]
+    again = montecarlo(scara, 4, out_dir=tmp_path / "b", workers=1).summary
+    assert again["points"] == summary["points"]  # the same seed, the same robots
+
+
+def test_hidden_harmonic_keeps_table_7_1_and_calibration_wins(tmp_path):
+    """A PUMA (six-parameter convention, base 67 cm up) reaches Table 7-1: its grid stays Stone's."""
+    summary = montecarlo(HIDDEN_HARMONIC, 4, out_dir=tmp_path, workers=1).summary
+    assert summary["grid"]["scaled"] is False and summary["grid"]["scale"] == 1.0
+    assert summary["grid"]["centre"] == [0.0, 55.0, 55.0] and summary["grid"]["unit"] == "cm"
+    assert (_means(summary, "calibrated", RADIAL) < _means(summary, "design", RADIAL) / 3).all()
+    assert summary["unobserved"] is not None  # one reflector, no orientation
+
+
+def test_ur10_with_a_6dof_probe_calibrates_every_index(tmp_path):
+    """The UR10 spec's tracker reads the probe's orientation: the absolute orientation indices are calibrated too."""
+    summary = montecarlo(UR10, 2, out_dir=tmp_path, workers=1).summary
+    assert summary["unobserved"] is None and summary["points"][0]["converged"] == 2
+    for names in (RADIAL, ORIENTATION):
+        assert (_means(summary, "calibrated", names) < _means(summary, "design", names) / 10).all()
+
+
+def test_a_robot_that_reaches_no_grid_is_told_so(scara, tmp_path):
+    tiny = tmp_path / "spec.yaml"  # shoulder and elbow that turn 2 deg: no grid fits its workspace
+    tiny.write_text(SCARA.replace("limits: [-132, 132]", "limits: [0, 2]").replace("limits: [-141, 141]", "limits: [0, 2]"))
+    with pytest.raises(UserError, match="neither at Table 7-1 nor, scaled to its reach"):
+        montecarlo(tiny, 2, out_dir=tmp_path / "out", workers=1)
+
+
+@pytest.mark.parametrize(
+    "spec, observed",
+    [
+        (UR10, True),  # a 6-DOF probe
+        (ROOT / "examples" / "goswami_ballbar" / "spec.yaml", True),  # three spheres on link 6
+        (HIDDEN_HARMONIC, False),  # one reflector
+        (ROOT / "examples" / "theodolite" / "spec.yaml", False),  # one ball
+        (ROOT / "examples" / "puma560_sonic" / "spec.yaml", False),  # one sparker on link 6
+    ],
+)
+def test_which_devices_observe_the_tools_orientation(spec, observed):
+    assert (unobserved_orientation(load_spec(spec).spec) is None) is observed

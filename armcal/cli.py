@@ -142,15 +142,13 @@ def simulate(
     """Write the spec's calibration and validation data, measured on a simulated true robot."""
     from armcal.simulate import write_simulation
     from armcal.spec import load_spec
+    from armcal.summary import simulation_summary
 
-    campaign, written = write_simulation(load_spec(spec), out, force)
+    loaded = load_spec(spec)
+    campaign, written = write_simulation(loaded, out, force)
     for path in written:
         typer.echo(f"wrote {path}")
-    for name, data in (("calibration", campaign.calibration), ("validation", campaign.validation)):
-        if data is not None:
-            dropped = campaign.dropped.get(name, {})
-            why = f", {sum(dropped.values())} planned poses dropped ({'; '.join(dropped)})" if dropped else ""
-            typer.echo(f"  {name}: {len(data)} samples{why}")
+    typer.echo(simulation_summary(loaded, campaign))
 
 
 HistoryOption = Annotated[

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from armcal.errors import UserError
@@ -127,6 +129,7 @@ def run_summary(outcome) -> str:
                  + (" (with the estimated sigmas: 1 wherever every group is estimated)" if r.noise is not None else ""))
     if r.noise_check.verdict != "consistent":
         lines.append(f"  {NOISE_VERDICTS[r.noise_check.verdict]}")
+    lines += cause_lines(r, r.spec.path)
     for flat in r.identifiability.flat_directions:
         moved = ", ".join(name for name, _ in flat.parameters)
         lines.append(f"  flat direction at the solution: singular value {flat.ratio:.2g} of the largest, along {moved}")
@@ -223,3 +226,63 @@ def batch_summary(outcomes: list[dict]) -> str:
         if o.get("noise_verdict", "consistent") != "consistent":
             lines.append(f"    {NOISE_VERDICTS[o['noise_verdict']]}")
     return "\n".join(lines)
+
+
+def _reason_of(label: str) -> str:
+    """'c1-s1: joint limit (j2)' -> 'joint limit'."""
+    return label.split(": ", 1)[-1].split(" (")[0]
+
+
+def simulation_summary(loaded: LoadedSpec, campaign) -> str:
+    """What `armcal simulate` prints after the files: per data set the samples, the planned poses dropped by reason
+    and where (latitude, longitude), the readings the simulated robot lost, and the spec keys behind each reason."""
+    from armcal.procedures.shells import DROP_REASONS
+
+    spec = loaded.spec
+    lines, reasons = [], {}
+    for name, data in (("calibration", campaign.calibration), ("validation", campaign.validation)):
+        if data is None:
+            continue
+        dropped, lost = campaign.dropped.get(name, {}), campaign.lost.get(name, {})
+        planned = len(data) + sum(dropped.values()) + sum(lost.values())
+        line = f"  {name}: {len(data)} samples of {planned} planned"
+        if dropped:
+            line += f"; {sum(dropped.values())} planned poses dropped"
+        if lost:
+            line += f"; {sum(lost.values())} readings lost on the simulated robot"
+        lines.append(line)
+        totals: dict[str, int] = {}
+        for label, count in dropped.items():
+            totals[label.split(": ", 1)[-1]] = totals.get(label.split(": ", 1)[-1], 0) + count
+        if totals:
+            lines.append("    dropped: " + ", ".join(f"{count} {why}" for why, count in sorted(totals.items(), key=lambda kv: -kv[1])))
+        where = campaign.where.get(name, {})
+        for label, count in dropped.items():
+            places = where.get(label, [])
+            pairing, _, why = label.rpartition(": ")
+            lines.append(f"      {pairing + ': ' if pairing else ''}{count} {why}" + (f" ({'; '.join(places)})" if places else ""))
+            reasons.setdefault(_reason_of(label), DROP_REASONS.get(_reason_of(label)))
+        if lost:
+            unit = spec.robot.units.length
+            travel = from_internal(spec.device.travel, "length", unit) if spec.device.type == "ballbar" else 0.0
+            what = (f"outside the bar's travel (device.travel {travel:g} {unit}: within {travel / 2:g} of mid-travel)"
+                    if spec.device.type == "ballbar" else "outside the instrument's range")
+            lines.append(f"    lost: {sum(lost.values())} readings {what} on the simulated robot, planned within it on the nominal "
+                         f"model: the robot's errors moved them out ({', '.join(f'{k} {n}' for k, n in lost.items())})")
+            reasons.setdefault("bar travel" if spec.device.type == "ballbar" else "instrument range",
+                               DROP_REASONS["bar travel"] if spec.device.type == "ballbar" else "the device's range keys")
+    if reasons:
+        lines.append("  look at: " + "; ".join(f"{why} -> {keys}" for why, keys in reasons.items() if keys))
+    return "\n".join(lines)
+
+
+def cause_lines(r, spec_path: str) -> list[str]:
+    """The likely causes of residuals above the noise model, ranked, each with its spec key and line."""
+    causes = r.noise_check.causes
+    if not causes:
+        return []
+    lines = [f"  likely causes of chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g}, by the evidence of this run (look at):"]
+    for number, cause in enumerate(causes, start=1):
+        where = f" [{cause.spec_key}" + (f", {Path(spec_path).name}:{cause.line}" if cause.line else "") + "]" if cause.spec_key else ""
+        lines.append(f"    {number}. {cause.text}{where}")
+    return lines

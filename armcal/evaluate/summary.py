@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from armcal.diagnose.causes import likely_causes
 from armcal.diagnose.loop import Diagnosis
 from armcal.diagnose.stage import Calibration
 from armcal.evaluate.acceptance import acceptance_block
@@ -94,7 +95,8 @@ def summarize(
             "outliers": sorted(int(r) for r in set(np.asarray(outliers).tolist())),
         },
         noise=noise_block(loaded, calibration.noise) if calibration.noise else None,
-        noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled, "verdict": uncertainty.verdict},
+        noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled, "verdict": uncertainty.verdict,
+                     "causes": likely_causes(loaded, calibration)},
         correlations=[list(c) for c in uncertainty.correlations],
         campaign=measured,
         acceptance=acceptance_block(spec.acceptance, calibration.validation, identified.theta, device_type),

@@ -202,12 +202,27 @@ class NoiseEstimate(_Frozen):
     groups: list[NoiseGroup]
 
 
+class Cause(_Frozen):
+    """A likely cause of residuals above the noise model, with the spec key to look at (diagnose/causes.py)."""
+
+    kind: Literal["held_by_spec", "held_by_spec_together", "candidate_not_accepted", "candidates_not_distinguishable", "declared_noise"]
+    parameters: list[str]
+    spec_key: str
+    line: int | None  # the spec's line of that key
+    chi2_drop: float | None  # chi2 freeing the parameters would remove (linearised), or the candidate's score statistic
+    dof: int | None
+    p_value: float | None
+    chi2_dof_after: float | None
+    text: str
+
+
 class NoiseCheck(_Frozen):
     chi2: float
     dof: int
     p_value: float
     covariance_scaled: bool
     verdict: Literal["consistent", "residuals_too_large", "residuals_too_small"] = "consistent"
+    causes: list[Cause] = []  # ranked, when the residuals are too large
 
 
 class Solver(_Frozen):

@@ -11,6 +11,7 @@ from armcal.evaluate.grid import RADIAL
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.parallel import parallel_axes
 from armcal.kinematics.transforms import pose_from_matrix
+from armcal.results.breakdown import before_data, table_lines
 from armcal.results.model import TASK_TITLES
 from armcal.spec import LoadedSpec
 from armcal.spec.robot import joint_kind
@@ -30,12 +31,15 @@ def spec_summary(loaded: LoadedSpec) -> str:
     """One paragraph: robot, parameters, device and procedure of a valid spec."""
     spec = loaded.spec
     robot = spec.robot
-    parameters = compile_robot(robot).parameters
-    free = int(parameters.free.sum())
+    parameters = spec_parameters(spec)
+    table = before_data(parameters.entries)
+    free = sum(row["free"] for row in table.values())
     lines = [
         f"{loaded.path}: valid (sha256 {loaded.sha256[:12]})",
         f"  robot      {robot.name}, serial {robot.serial}: {robot.dof} joints, convention {robot.convention}",
-        f"  parameters {len(parameters)} ({free} free, {len(parameters) - free} fixed)",
+        f"  parameters {len(parameters)} ({free} free, {len(parameters) - free} held by the spec); `armcal run` splits the free ones"
+        " into identified and not identifiable (from the data), and adds the effects its diagnosis finds:",
+        *table_lines(table, "             "),
         f"  units      {robot.units.length}, {robot.units.angle}",
         f"  device     {spec.device.type}",
         f"  procedure  {spec.procedure.type}" + (f", validation {spec.validation.type}" if spec.validation else ""),
@@ -45,6 +49,16 @@ def spec_summary(loaded: LoadedSpec) -> str:
         done += [f"{axes.name}.d held"] if axes.d_held else []
         lines.append(f"  parallel   axes {axes.joint} and {axes.joint + 1}" + (": " + ", ".join(done) if done else ""))
     return "\n".join(lines)
+
+
+def spec_parameters(spec):
+    """Every parameter a run of the spec starts with: the robot's, the instrument's, the declared effects'."""
+    from armcal.devices import device_model
+    from armcal.effects.library import from_spec
+    from armcal.effects.model import EffectSet
+    from armcal.identify.problem import combined_parameters
+
+    return combined_parameters(compile_robot(spec.robot), device_model(spec, spec.fit.sonic_readings), EffectSet(tuple(from_spec(e) for e in spec.effects)))
 
 
 def parse_joint_values(loaded: LoadedSpec, text: str) -> np.ndarray:
@@ -118,6 +132,7 @@ def run_summary(outcome) -> str:
         f"{r.robot.name} ({r.robot.serial}): {r.status} ({r.solver.reason}, {r.solver.iterations} iterations)",
         f"  identified {r.identifiability.rank} of {r.identifiability.n_parameters} parameters, "
         f"condition number {r.identifiability.condition_number:.3g}",
+        *(table_lines(r.identifiability.breakdown) if r.identifiability.breakdown else []),
         f"  calibration RMS {cal.before.rms:.4g} -> {cal.after.rms:.4g} {unit} (x{r.improvement_factor.calibration:.3g})",
     ]
     if r.residuals.validation is not None:

@@ -67,6 +67,7 @@ class IdentifiabilityInfo(_Frozen):
     design_point: str = "nominal"  # where the base set was decided
     flat_directions: list[FlatDirection] = []
     parallel_axes: list[ParallelAxesInfo] = []
+    breakdown: dict[str, dict[str, int]] = {}  # robot / instrument / registration / effects x identified / not_identifiable / held_by_spec (results/breakdown.py)
 
 
 class ParameterResult(_Frozen):

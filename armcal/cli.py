@@ -136,19 +136,20 @@ def fk(
 @user_errors
 def simulate(
     spec: SpecArg,
-    out: Annotated[Path, typer.Option("--out", help="Folder for the CSV files and truth.json.", metavar="DIR")],
+    out: Annotated[Path | None, typer.Option("--out", help="Folder for the CSV files and truth.json (default: where the spec's data section points, so that `armcal run` reads them).", metavar="DIR")] = None,
     force: Annotated[bool, typer.Option("--force", help="Replace existing data files and truth.json.")] = False,
 ) -> None:
     """Write the spec's calibration and validation data, measured on a simulated true robot."""
-    from armcal.simulate import write_simulation
+    from armcal.simulate import data_folder, write_simulation
     from armcal.spec import load_spec
-    from armcal.summary import simulation_summary
+    from armcal.summary import simulation_summary, where_run_reads
 
     loaded = load_spec(spec)
-    campaign, written = write_simulation(loaded, out, force)
+    campaign, written = write_simulation(loaded, out if out is not None else data_folder(loaded), force)
     for path in written:
         typer.echo(f"wrote {path}")
     typer.echo(simulation_summary(loaded, campaign))
+    typer.echo(where_run_reads(loaded, written))
 
 
 HistoryOption = Annotated[

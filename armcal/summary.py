@@ -152,6 +152,7 @@ def run_summary(outcome) -> str:
         lines.append(f"  not identifiable from these data: {', '.join(r.identifiability.unidentifiable)}")
     lines += task_lines(r)
     lines += conformity_lines(r)
+    lines += [f"  warning: {w}" for w in r.warnings]
     written = ["results.json", "calibrated.yaml", "certificate.html"] + (["certificate.pdf"] if (outcome.out_dir / "certificate.pdf").exists() else [])
     lines.append(f"  wrote {', '.join(written)} in {outcome.out_dir}")
     return "\n".join(lines)
@@ -301,3 +302,30 @@ def cause_lines(r, spec_path: str) -> list[str]:
         where = f" [{cause.spec_key}" + (f", {Path(spec_path).name}:{cause.line}" if cause.line else "") + "]" if cause.spec_key else ""
         lines.append(f"    {number}. {cause.text}{where}")
     return lines
+
+
+def where_run_reads(loaded: LoadedSpec, written: list) -> str:
+    """After `armcal simulate`: the files are simulated (truth.json marks them), and whether `armcal run` reads them
+    (the spec's data paths are relative to the spec) - if not, the data section that would point at them."""
+    import os
+
+    data = loaded.spec.data
+    csvs = [Path(p) for p in written if Path(p).suffix == ".csv"]
+    lines = [f"  simulated data: truth.json beside {'them' if len(csvs) > 1 else 'it'} marks {'these files' if len(csvs) > 1 else 'this file'} "
+             "(armcal run reports SIMULATED DATA while they are unchanged). Measuring for real? Keep the layout, replace the readings, "
+             "and put your times in the t column or delete it: the simulated t is fake (simulate.time_step apart)"]
+    folder = loaded.path.parent.resolve()
+    wanted = {"calibration": data.calibration if data else None, "validation": data.validation if data else None}
+    relative = [os.path.relpath(p.resolve(), folder) for p in csvs]
+    reads = [folder / w for w in wanted.values() if w]
+    if data is not None and all(any(p.resolve() == r.resolve() for r in reads) for p in csvs):
+        return "\n".join(lines + [f"  `armcal run {loaded.path}` reads them (the spec's data section points here)"])
+    names = dict(zip(("calibration", "validation"), relative))
+    section = "data: {" + ", ".join(f"{k}: {v}" for k, v in names.items()) + "}"
+    if data is None:
+        lines.append(f"  note: the spec has no data section, so `armcal run` reads nothing; add {section}")
+    else:
+        looked = ", ".join(f"data.{k} = {w} -> {folder / w}" for k, w in wanted.items() if w)
+        lines.append(f"  note: `armcal run` does not read these files: it reads the spec's data paths, relative to the spec ({looked}). "
+                     f"Point the spec at them with {section}, or simulate without --out (it writes where the spec points)")
+    return "\n".join(lines)

@@ -335,3 +335,4 @@ class Results(_Frozen):
     acceptance: AcceptanceResult | None = None  # null: the spec gives no acceptance criterion
     simulated: SimulatedData | None = None  # null: not recorded (results of an older armcal)
     history: list[HistoryEntry] = []  # earlier calibrations given with --history
+    warnings: list[str] = []  # what the user should know about the inputs (e.g. a simulated-looking t column in real data)

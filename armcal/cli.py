@@ -136,21 +136,20 @@ def fk(
 @user_errors
 def simulate(
     spec: SpecArg,
-    out: Annotated[Path, typer.Option("--out", help="Folder for the CSV files and truth.json.", metavar="DIR")],
+    out: Annotated[Path | None, typer.Option("--out", help="Folder for the CSV files and truth.json (default: where the spec's data section points, so that `armcal run` reads them).", metavar="DIR")] = None,
     force: Annotated[bool, typer.Option("--force", help="Replace existing data files and truth.json.")] = False,
 ) -> None:
     """Write the spec's calibration and validation data, measured on a simulated true robot."""
-    from armcal.simulate import write_simulation
+    from armcal.simulate import data_folder, write_simulation
     from armcal.spec import load_spec
+    from armcal.summary import simulation_summary, where_run_reads
 
-    campaign, written = write_simulation(load_spec(spec), out, force)
+    loaded = load_spec(spec)
+    campaign, written = write_simulation(loaded, out if out is not None else data_folder(loaded), force)
     for path in written:
         typer.echo(f"wrote {path}")
-    for name, data in (("calibration", campaign.calibration), ("validation", campaign.validation)):
-        if data is not None:
-            dropped = campaign.dropped.get(name, {})
-            why = f", {sum(dropped.values())} planned poses dropped ({'; '.join(dropped)})" if dropped else ""
-            typer.echo(f"  {name}: {len(data)} samples{why}")
+    typer.echo(simulation_summary(loaded, campaign))
+    typer.echo(where_run_reads(loaded, written))
 
 
 HistoryOption = Annotated[

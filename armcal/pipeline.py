@@ -22,7 +22,8 @@ from armcal.results.model import Results
 from armcal.results.calibrated import calibrated_text
 from armcal.results.campaign import campaign
 from armcal.results.history import history_entries
-from armcal.simulate import find_truth
+from armcal.simulate import find_truth, simulated_times
+from armcal.spec.sections import Simulate
 from armcal.spec import load_spec
 
 
@@ -77,6 +78,11 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     plots = {name: stamp_svg(svg, identifier) for name, svg in draw_plots(found).items()}
     validation_path = folder / spec.data.validation if spec.data.validation else None
     simulated = (truth is not None, validation_path is not None and find_truth(validation_path) is not None)
+    step = (spec.simulate or Simulate()).time_step
+    warnings = [w for w in (
+        simulated_times(calibration_path, raw.extras.get("t"), step, truth),
+        simulated_times(validation_path, validation.extras.get("t"), step, None if not simulated[1] else {}) if validation is not None else None,
+    ) if w]
     measured = campaign(loaded, calibration, validation, simulated)
     results = summarize(loaded, calibrated, calibration.rows, tasks, found, list(plots), measured)
     results = Results.model_validate({
@@ -84,6 +90,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
         "run_id": identifier,
         "simulated": {"calibration": simulated[0], "validation": simulated[1] if validation_path else None},
         "history": history_entries(results.model_dump(mode="json"), earlier),
+        "warnings": warnings,
     })
     files = {
         "results.json": json.dumps(results.model_dump(mode="json"), indent=2) + "\n",

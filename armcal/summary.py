@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from armcal.errors import UserError
@@ -9,6 +11,7 @@ from armcal.evaluate.grid import RADIAL
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.parallel import parallel_axes
 from armcal.kinematics.transforms import pose_from_matrix
+from armcal.results.breakdown import before_data, table_lines
 from armcal.results.model import TASK_TITLES
 from armcal.spec import LoadedSpec
 from armcal.spec.robot import joint_kind
@@ -28,12 +31,15 @@ def spec_summary(loaded: LoadedSpec) -> str:
     """One paragraph: robot, parameters, device and procedure of a valid spec."""
     spec = loaded.spec
     robot = spec.robot
-    parameters = compile_robot(robot).parameters
-    free = int(parameters.free.sum())
+    parameters = spec_parameters(spec)
+    table = before_data(parameters.entries)
+    free = sum(row["free"] for row in table.values())
     lines = [
         f"{loaded.path}: valid (sha256 {loaded.sha256[:12]})",
         f"  robot      {robot.name}, serial {robot.serial}: {robot.dof} joints, convention {robot.convention}",
-        f"  parameters {len(parameters)} ({free} free, {len(parameters) - free} fixed)",
+        f"  parameters {len(parameters)} ({free} free, {len(parameters) - free} held by the spec); `armcal run` splits the free ones"
+        " into identified and not identifiable (from the data), and adds the effects its diagnosis finds:",
+        *table_lines(table, "             "),
         f"  units      {robot.units.length}, {robot.units.angle}",
         f"  device     {spec.device.type}",
         f"  procedure  {spec.procedure.type}" + (f", validation {spec.validation.type}" if spec.validation else ""),
@@ -43,6 +49,16 @@ def spec_summary(loaded: LoadedSpec) -> str:
         done += [f"{axes.name}.d held"] if axes.d_held else []
         lines.append(f"  parallel   axes {axes.joint} and {axes.joint + 1}" + (": " + ", ".join(done) if done else ""))
     return "\n".join(lines)
+
+
+def spec_parameters(spec):
+    """Every parameter a run of the spec starts with: the robot's, the instrument's, the declared effects'."""
+    from armcal.devices import device_model
+    from armcal.effects.library import from_spec
+    from armcal.effects.model import EffectSet
+    from armcal.identify.problem import combined_parameters
+
+    return combined_parameters(compile_robot(spec.robot), device_model(spec, spec.fit.sonic_readings), EffectSet(tuple(from_spec(e) for e in spec.effects)))
 
 
 def parse_joint_values(loaded: LoadedSpec, text: str) -> np.ndarray:
@@ -116,6 +132,7 @@ def run_summary(outcome) -> str:
         f"{r.robot.name} ({r.robot.serial}): {r.status} ({r.solver.reason}, {r.solver.iterations} iterations)",
         f"  identified {r.identifiability.rank} of {r.identifiability.n_parameters} parameters, "
         f"condition number {r.identifiability.condition_number:.3g}",
+        *(table_lines(r.identifiability.breakdown) if r.identifiability.breakdown else []),
         f"  calibration RMS {cal.before.rms:.4g} -> {cal.after.rms:.4g} {unit} (x{r.improvement_factor.calibration:.3g})",
     ]
     if r.residuals.validation is not None:
@@ -127,6 +144,7 @@ def run_summary(outcome) -> str:
                  + (" (with the estimated sigmas: 1 wherever every group is estimated)" if r.noise is not None else ""))
     if r.noise_check.verdict != "consistent":
         lines.append(f"  {NOISE_VERDICTS[r.noise_check.verdict]}")
+    lines += cause_lines(r, r.spec.path)
     for flat in r.identifiability.flat_directions:
         moved = ", ".join(name for name, _ in flat.parameters)
         lines.append(f"  flat direction at the solution: singular value {flat.ratio:.2g} of the largest, along {moved}")
@@ -134,6 +152,7 @@ def run_summary(outcome) -> str:
         lines.append(f"  not identifiable from these data: {', '.join(r.identifiability.unidentifiable)}")
     lines += task_lines(r)
     lines += conformity_lines(r)
+    lines += [f"  warning: {w}" for w in r.warnings]
     written = ["results.json", "calibrated.yaml", "certificate.html"] + (["certificate.pdf"] if (outcome.out_dir / "certificate.pdf").exists() else [])
     lines.append(f"  wrote {', '.join(written)} in {outcome.out_dir}")
     return "\n".join(lines)
@@ -227,4 +246,91 @@ def batch_summary(outcomes: list[dict]) -> str:
         lines.append(f"  {o['spec']}: {o['robot']} {o['status']}{unexplained}, RMS {before:.4g} -> {after:.4g} {o['unit']}{held}; {o['out_dir']}")
         if o.get("noise_verdict", "consistent") != "consistent":
             lines.append(f"    {NOISE_VERDICTS[o['noise_verdict']]}")
+    return "\n".join(lines)
+
+
+def _reason_of(label: str) -> str:
+    """'c1-s1: joint limit (j2)' -> 'joint limit'."""
+    return label.split(": ", 1)[-1].split(" (")[0]
+
+
+def simulation_summary(loaded: LoadedSpec, campaign) -> str:
+    """What `armcal simulate` prints after the files: per data set the samples, the planned poses dropped by reason
+    and where (latitude, longitude), the readings the simulated robot lost, and the spec keys behind each reason."""
+    from armcal.procedures.shells import DROP_REASONS
+
+    spec = loaded.spec
+    lines, reasons = [], {}
+    for name, data in (("calibration", campaign.calibration), ("validation", campaign.validation)):
+        if data is None:
+            continue
+        dropped, lost = campaign.dropped.get(name, {}), campaign.lost.get(name, {})
+        planned = len(data) + sum(dropped.values()) + sum(lost.values())
+        line = f"  {name}: {len(data)} samples of {planned} planned"
+        if dropped:
+            line += f"; {sum(dropped.values())} planned poses dropped"
+        if lost:
+            line += f"; {sum(lost.values())} readings lost on the simulated robot"
+        lines.append(line)
+        totals: dict[str, int] = {}
+        for label, count in dropped.items():
+            totals[label.split(": ", 1)[-1]] = totals.get(label.split(": ", 1)[-1], 0) + count
+        if totals:
+            lines.append("    dropped: " + ", ".join(f"{count} {why}" for why, count in sorted(totals.items(), key=lambda kv: -kv[1])))
+        where = campaign.where.get(name, {})
+        for label, count in dropped.items():
+            places = where.get(label, [])
+            pairing, _, why = label.rpartition(": ")
+            lines.append(f"      {pairing + ': ' if pairing else ''}{count} {why}" + (f" ({'; '.join(places)})" if places else ""))
+            reasons.setdefault(_reason_of(label), DROP_REASONS.get(_reason_of(label)))
+        if lost:
+            unit = spec.robot.units.length
+            travel = from_internal(spec.device.travel, "length", unit) if spec.device.type == "ballbar" else 0.0
+            what = (f"outside the bar's travel (device.travel {travel:g} {unit}: within {travel / 2:g} of mid-travel)"
+                    if spec.device.type == "ballbar" else "outside the instrument's range")
+            lines.append(f"    lost: {sum(lost.values())} readings {what} on the simulated robot, planned within it on the nominal "
+                         f"model: the robot's errors moved them out ({', '.join(f'{k} {n}' for k, n in lost.items())})")
+            reasons.setdefault("bar travel" if spec.device.type == "ballbar" else "instrument range",
+                               DROP_REASONS["bar travel"] if spec.device.type == "ballbar" else "the device's range keys")
+    if reasons:
+        lines.append("  look at: " + "; ".join(f"{why} -> {keys}" for why, keys in reasons.items() if keys))
+    return "\n".join(lines)
+
+
+def cause_lines(r, spec_path: str) -> list[str]:
+    """The likely causes of residuals above the noise model, ranked, each with its spec key and line."""
+    causes = r.noise_check.causes
+    if not causes:
+        return []
+    lines = [f"  likely causes of chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g}, by the evidence of this run (look at):"]
+    for number, cause in enumerate(causes, start=1):
+        where = f" [{cause.spec_key}" + (f", {Path(spec_path).name}:{cause.line}" if cause.line else "") + "]" if cause.spec_key else ""
+        lines.append(f"    {number}. {cause.text}{where}")
+    return lines
+
+
+def where_run_reads(loaded: LoadedSpec, written: list) -> str:
+    """After `armcal simulate`: the files are simulated (truth.json marks them), and whether `armcal run` reads them
+    (the spec's data paths are relative to the spec) - if not, the data section that would point at them."""
+    import os
+
+    data = loaded.spec.data
+    csvs = [Path(p) for p in written if Path(p).suffix == ".csv"]
+    lines = [f"  simulated data: truth.json beside {'them' if len(csvs) > 1 else 'it'} marks {'these files' if len(csvs) > 1 else 'this file'} "
+             "(armcal run reports SIMULATED DATA while they are unchanged). Measuring for real? Keep the layout, replace the readings, "
+             "and put your times in the t column or delete it: the simulated t is fake (simulate.time_step apart)"]
+    folder = loaded.path.parent.resolve()
+    wanted = {"calibration": data.calibration if data else None, "validation": data.validation if data else None}
+    relative = [os.path.relpath(p.resolve(), folder) for p in csvs]
+    reads = [folder / w for w in wanted.values() if w]
+    if data is not None and all(any(p.resolve() == r.resolve() for r in reads) for p in csvs):
+        return "\n".join(lines + [f"  `armcal run {loaded.path}` reads them (the spec's data section points here)"])
+    names = dict(zip(("calibration", "validation"), relative))
+    section = "data: {" + ", ".join(f"{k}: {v}" for k, v in names.items()) + "}"
+    if data is None:
+        lines.append(f"  note: the spec has no data section, so `armcal run` reads nothing; add {section}")
+    else:
+        looked = ", ".join(f"data.{k} = {w} -> {folder / w}" for k, w in wanted.items() if w)
+        lines.append(f"  note: `armcal run` does not read these files: it reads the spec's data paths, relative to the spec ({looked}). "
+                     f"Point the spec at them with {section}, or simulate without --out (it writes where the spec points)")
     return "\n".join(lines)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from armcal.diagnose.causes import likely_causes
 from armcal.diagnose.loop import Diagnosis
 from armcal.diagnose.stage import Calibration
 from armcal.evaluate.acceptance import acceptance_block
@@ -12,6 +13,7 @@ from armcal.evaluate.features import evaluation
 from armcal.evaluate.residuals import before_after, distance_before_after, improvement, readings_residuals, residual_unit
 from armcal.identify.uncertainty import residual_stats
 from armcal.kinematics.parallel import parallel_axes
+from armcal.results.breakdown import after_fit
 from armcal.results.build import build_results, parameter_rows
 from armcal.results.model import Results
 from armcal.spec import LoadedSpec
@@ -66,6 +68,7 @@ def summarize(
             "unidentifiable": list(ident.unidentifiable),
             "design_point": _design_point(identified, start, problem),
             "flat_directions": list(result.conditioning.flat),
+            "breakdown": after_fit([e for e, _, _ in entries], set(ident.base), dict(ident.fixed)),
             "parallel_axes": [
                 {"joints": (p.joint, p.joint + 1), "added": f"{p.name}.beta" if p.beta_added else None, "held": f"{p.name}.d" if p.d_held else None}
                 for p in parallel_axes(spec.robot)
@@ -94,7 +97,8 @@ def summarize(
             "outliers": sorted(int(r) for r in set(np.asarray(outliers).tolist())),
         },
         noise=noise_block(loaded, calibration.noise) if calibration.noise else None,
-        noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled, "verdict": uncertainty.verdict},
+        noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled, "verdict": uncertainty.verdict,
+                     "causes": likely_causes(loaded, calibration)},
         correlations=[list(c) for c in uncertainty.correlations],
         campaign=measured,
         acceptance=acceptance_block(spec.acceptance, calibration.validation, identified.theta, device_type),

@@ -164,6 +164,26 @@ def solve_from_starts(
     configurations; of the solutions within limits the one closest to the middle
     is kept, so that neighbouring goals share one arm configuration.
     """
+    return solve_from_starts_why(model, goals, frame, p, starts, seed)[0]
+
+
+UNSOLVED, OUTSIDE_LIMITS, SOLVED = 0, 1, 2  # solve_from_starts_why's outcomes per goal
+
+
+def solve_from_starts_why(
+    model: KinematicModel,
+    goals: np.ndarray,
+    frame: str | None = None,
+    p: np.ndarray | None = None,
+    starts: int = 12,
+    seed: int = 0,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``solve_from_starts`` and why a goal has no configuration: (Q (M, n), outcome (M,), joint (M,)).
+
+    outcome: SOLVED, OUTSIDE_LIMITS (Newton-Raphson converged from some start, every solution leaves a
+    joint limit) or UNSOLVED (no start converged); joint: for OUTSIDE_LIMITS the 0-based joint whose limit
+    the solution nearest the middle leaves, else -1.
+    """
     goals = np.atleast_2d(goals)
     rng = np.random.default_rng(seed)
     low, high = model.limits[:, 0], model.limits[:, 1]
@@ -175,8 +195,16 @@ def solve_from_starts(
     good = result.converged & within_limits(model, Q)
     distance = np.where(good, np.linalg.norm((Q - middle) / (high - low), axis=1), np.inf).reshape(count, len(seeds))
     chosen = Q.reshape(count, len(seeds), -1)[np.arange(count), distance.argmin(axis=1)]
-    chosen[~np.isfinite(distance.min(axis=1))] = np.nan
-    return chosen
+    solved = np.isfinite(distance.min(axis=1))
+    chosen[~solved] = np.nan
+    converged = result.converged.reshape(count, len(seeds))
+    outcome = np.where(solved, SOLVED, np.where(converged.any(axis=1), OUTSIDE_LIMITS, UNSOLVED))
+    joint = np.full(count, -1)
+    outside = (Q < low) | (Q > high)
+    excess = np.where(result.converged, np.linalg.norm((Q - middle) / (high - low), axis=1), np.inf).reshape(count, len(seeds))
+    for i in np.flatnonzero(outcome == OUTSIDE_LIMITS):
+        joint[i] = int(np.argmax(outside.reshape(count, len(seeds), -1)[i, excess[i].argmin()]))
+    return chosen, outcome, joint
 
 
 def wrap_into_limits(model: KinematicModel, Q: np.ndarray) -> np.ndarray:

@@ -17,7 +17,7 @@ def plan(procedure, kinematics: KinematicModel, device: DeviceModel, spec: Spec,
     if isinstance(procedure, CirclePoint):
         return plan_circle_point(procedure, kinematics, device)
     if isinstance(procedure, Shells):
-        return plan_shells(procedure, kinematics, device)
+        return plan_shells(procedure, kinematics, device, angle_unit=spec.robot.units.angle)
     return plan_poses(procedure, kinematics, device, spec, spec_dir)
 
 

@@ -16,6 +16,7 @@ class Plan:
     keys: tuple[Key, ...]
     q: np.ndarray  # (N, n) joint readings, mm / rad
     dropped: dict[str, int] = field(default_factory=dict)
+    where: dict[str, list[str]] = field(default_factory=dict)  # per reason, the planned points dropped (e.g. "lat 20: lon 0, 30")
 
     def __len__(self) -> int:
         return len(self.keys)
@@ -24,11 +25,14 @@ class Plan:
     def join(plans: list["Plan"]) -> "Plan":
         """Concatenate plans, adding up their drop counts."""
         dropped: dict[str, int] = {}
+        where: dict[str, list[str]] = {}
         for plan in plans:
             for reason, count in plan.dropped.items():
                 dropped[reason] = dropped.get(reason, 0) + count
+            for reason, points in plan.where.items():
+                where[reason] = where.get(reason, []) + points
         q = np.concatenate([p.q for p in plans]) if plans else np.zeros((0, 0))
-        return Plan(tuple(k for p in plans for k in p.keys), q, dropped)
+        return Plan(tuple(k for p in plans for k in p.keys), q, dropped, where)
 
 
 def sweep(low: float, high: float, count: int, revolute: bool) -> np.ndarray:

@@ -7,7 +7,8 @@ pivot. Each is solved with inverse kinematics of the nominal model, the sphere
 at the point and the end effector's z axis halfway between straight down and
 the pivot (the bar then clears the fixture and more of the hemisphere is
 reachable than facing the pivot squarely); poses that do not converge,
-leave the joint limits, or read outside the LVDT travel are dropped.
+leave the joint limits, or read outside the LVDT travel are dropped, each counted
+under its reason (DROP_REASONS) with the latitude and longitude of the point.
 """
 
 from __future__ import annotations
@@ -19,6 +20,19 @@ from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel
 from armcal.procedures.plan import Plan
 from armcal.spec.procedure import Shells
+from armcal.units import from_internal
+
+REACH_SAMPLES = 4096  # random configurations that measure how far the sphere gets from the base
+
+# why a shell point is dropped: the reason's words in the plan, and the spec keys that decide it
+DROP_REASONS = {
+    "pivot out of reach": "device.pivots (move the chuck nearer the robot), device.length / procedure.radius",
+    "beyond the arm's reach": "procedure.latitudes, device.pivots, device.length / procedure.radius",
+    "no inverse kinematics": "the sphere's orientation there (robot.targets, its link), procedure.latitudes",
+    "joint limit": "robot.joints[].limits (the joint named), procedure.latitudes / longitudes",
+    "bar travel": "device.travel, device.length (the reading must stay within travel/2 of mid-travel)",
+}
+
 
 def shell_points(centre: np.ndarray, radius: float, latitudes: list[float], longitudes: int) -> np.ndarray:
     """Points (M, 3) on the hemisphere above ``centre``: each latitude ring, ``longitudes`` points per ring."""
@@ -28,7 +42,16 @@ def shell_points(centre: np.ndarray, radius: float, latitudes: list[float], long
     return centre + radius * ring
 
 
-def plan_shells(procedure: Shells, kinematics: KinematicModel, device: BallBarModel, seed: int = 0) -> Plan:
+def reach(kinematics: KinematicModel, sphere: str, seed: int = 0) -> tuple[np.ndarray, float]:
+    """The base origin and the farthest the sphere gets from it over random configurations within the limits."""
+    rng = np.random.default_rng(seed)
+    Q = rng.uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (REACH_SAMPLES, kinematics.dof))
+    origin = kinematics.link_frames(np.mean(kinematics.limits, axis=1))[0][:3, 3]
+    points = kinematics.target_poses(sphere, Q)[:, :3, 3]
+    return origin, float(np.max(np.linalg.norm(points - origin, axis=1)))
+
+
+def plan_shells(procedure: Shells, kinematics: KinematicModel, device: BallBarModel, seed: int = 0, angle_unit: str = "deg") -> Plan:
     values = device.parameters.values(device.parameters.nominal)
     plans = []
     for pairing in procedure.pairings:
@@ -39,10 +62,49 @@ def plan_shells(procedure: Shells, kinematics: KinematicModel, device: BallBarMo
         inward = (centre - points) / radius
         axis = inward + [0.0, 0.0, -1.0]
         axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-        q = ik.solve_from_starts(kinematics, np.concatenate([points, axis], axis=1), frame=pairing.sphere, seed=seed)
-        ok = ~np.isnan(q).any(axis=1)
+        q, outcome, joint = ik.solve_from_starts_why(kinematics, np.concatenate([points, axis], axis=1), frame=pairing.sphere, seed=seed)
+        ok = outcome == ik.SOLVED
         reachable = np.zeros(len(points), dtype=bool)
         reachable[ok] = device.visible(key, kinematics.target_poses(pairing.sphere, q[ok]))
-        dropped = {f"{pairing.pivot}-{pairing.sphere} unreachable": int((~reachable).sum())} if (~reachable).any() else {}
-        plans.append(Plan(tuple([key] * int(reachable.sum())), q[reachable], dropped))
+        why = _reasons(kinematics, pairing.sphere, points, centre, radius, outcome, joint, ok & ~reachable)
+        label = f"{pairing.pivot}-{pairing.sphere}"
+        dropped, where = {}, {}
+        for reason in dict.fromkeys(r for r in why if r):
+            rows = [i for i, r in enumerate(why) if r == reason]
+            dropped[f"{label}: {reason}"] = len(rows)
+            where[f"{label}: {reason}"] = _where(rows, procedure, angle_unit)
+        plans.append(Plan(tuple([key] * int(reachable.sum())), q[reachable], dropped, where))
     return Plan.join(plans)
+
+
+def _reasons(kinematics, sphere, points, centre, radius, outcome, joint, travel) -> list[str]:
+    """Per point: '' (kept) or why it is dropped (a DROP_REASONS key, a joint limit naming the joint)."""
+    names = kinematics.joint_names
+    unsolved = outcome == ik.UNSOLVED
+    far = np.zeros(len(points), dtype=bool)
+    pivot_far = False
+    if unsolved.any():
+        origin, farthest = reach(kinematics, sphere)
+        far = np.linalg.norm(points - origin, axis=1) > farthest
+        pivot_far = bool(far.all()) and np.linalg.norm(centre - origin) - radius > farthest
+    out = []
+    for i in range(len(points)):
+        if unsolved[i]:
+            out.append("pivot out of reach" if pivot_far else "beyond the arm's reach" if far[i] else "no inverse kinematics")
+        elif outcome[i] == ik.OUTSIDE_LIMITS:
+            out.append(f"joint limit ({names[joint[i]]})")
+        elif travel[i]:
+            out.append("bar travel")
+        else:
+            out.append("")
+    return out
+
+
+def _where(rows: list[int], procedure: Shells, unit: str) -> list[str]:
+    """'lat 20: lon 0, 30, 60' per latitude ring of the dropped points, in the spec's angle unit."""
+    n = procedure.longitudes
+    rings: dict[int, list[int]] = {}
+    for i in rows:
+        rings.setdefault(i // n, []).append(i % n)
+    show = lambda v: f"{from_internal(v, 'angle', unit):g}"  # noqa: E731
+    return [f"lat {show(procedure.latitudes[r])}: lon " + ", ".join(show(2 * np.pi * k / n) for k in lons) for r, lons in rings.items()]

@@ -368,6 +368,7 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
             "design_point": identifiability.get("design_point", "nominal"),
             "flat": [_flat_direction(f) for f in identifiability.get("flat_directions", [])],
             "parallel": [_parallel_note(p) for p in identifiability.get("parallel_axes", [])],
+            "breakdown": _breakdown_rows(identifiability.get("breakdown") or {}),
         },
         "unit": results["device"]["unit"],
         "parameters": _parameter_rows(results),
@@ -390,3 +391,14 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
         "estimated_noise": _estimated_noise(results.get("noise")),
         "version": results["armcal_version"],
     }
+
+
+def _breakdown_rows(table: dict) -> list[tuple[str, str, str, str, str]]:
+    """The parameter counts as run prints them (results/breakdown.py): row, identified, not identifiable, held, total."""
+    rows, totals = [], [0, 0, 0]
+    for row, counts in table.items():
+        values = [counts["identified"], counts["not_identifiable"], counts["held_by_spec"]]
+        if sum(values):
+            rows.append((row, *(str(v) for v in values), str(sum(values))))
+            totals = [t + v for t, v in zip(totals, values)]
+    return rows + [("total", *(str(v) for v in totals), str(sum(totals)))] if rows else []

@@ -67,6 +67,7 @@ class IdentifiabilityInfo(_Frozen):
     design_point: str = "nominal"  # where the base set was decided
     flat_directions: list[FlatDirection] = []
     parallel_axes: list[ParallelAxesInfo] = []
+    breakdown: dict[str, dict[str, int]] = {}  # robot / instrument / registration / effects x identified / not_identifiable / held_by_spec (results/breakdown.py)
 
 
 class ParameterResult(_Frozen):
@@ -202,12 +203,27 @@ class NoiseEstimate(_Frozen):
     groups: list[NoiseGroup]
 
 
+class Cause(_Frozen):
+    """A likely cause of residuals above the noise model, with the spec key to look at (diagnose/causes.py)."""
+
+    kind: Literal["held_by_spec", "held_by_spec_together", "candidate_not_accepted", "candidates_not_distinguishable", "declared_noise"]
+    parameters: list[str]
+    spec_key: str
+    line: int | None  # the spec's line of that key
+    chi2_drop: float | None  # chi2 freeing the parameters would remove (linearised), or the candidate's score statistic
+    dof: int | None
+    p_value: float | None
+    chi2_dof_after: float | None
+    text: str
+
+
 class NoiseCheck(_Frozen):
     chi2: float
     dof: int
     p_value: float
     covariance_scaled: bool
     verdict: Literal["consistent", "residuals_too_large", "residuals_too_small"] = "consistent"
+    causes: list[Cause] = []  # ranked, when the residuals are too large
 
 
 class Solver(_Frozen):
@@ -319,3 +335,4 @@ class Results(_Frozen):
     acceptance: AcceptanceResult | None = None  # null: the spec gives no acceptance criterion
     simulated: SimulatedData | None = None  # null: not recorded (results of an older armcal)
     history: list[HistoryEntry] = []  # earlier calibrations given with --history
+    warnings: list[str] = []  # what the user should know about the inputs (e.g. a simulated-looking t column in real data)

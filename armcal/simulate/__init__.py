@@ -6,6 +6,8 @@ import hashlib
 import json
 from pathlib import Path
 
+import numpy as np
+
 from armcal.dataio.writer import write_measurements
 from armcal.errors import UserError
 from armcal.fileio import read_input, refuse_replacing, write_text_atomic
@@ -19,6 +21,12 @@ def data_file_names(loaded: LoadedSpec) -> tuple[str, str]:
     if data is None:
         return "calibration.csv", "validation.csv"
     return Path(data.calibration).name, Path(data.validation or "validation.csv").name
+
+
+def data_folder(loaded: LoadedSpec) -> Path:
+    """Where the spec's data section points (its calibration file's folder), or the spec's folder without one."""
+    data = loaded.spec.data
+    return loaded.path.parent / (Path(data.calibration).parent if data is not None else Path("."))
 
 
 def write_simulation(loaded: LoadedSpec, out_dir: Path, force: bool = False) -> tuple[Campaign, list[Path]]:
@@ -55,4 +63,24 @@ def find_truth(data_file: Path) -> dict | None:
     return record if record["data_sha256"].get(Path(data_file).name) == digest else None
 
 
-__all__ = ["Campaign", "find_truth", "simulate_campaign", "write_simulation"]
+
+
+def simulated_times(data_file: Path, t: np.ndarray | None, time_step: float, truth: dict | None) -> str | None:
+    """A warning when a data file not written by ``armcal simulate`` (or changed since) still has the simulator's t
+    column: 0, 10, 20, ... s (``simulate.time_step`` apart, from 0 or from where the calibration file ended). Such
+    times are not the readings' and would feed the drift test (thermal_drift, source: time) and the plots."""
+    if truth is not None or t is None or len(t) < 3 or time_step <= 0 or np.isnan(t).any():
+        return None
+    steps = np.diff(t)
+    if not (np.allclose(steps, time_step, rtol=0, atol=1e-9) and abs(t[0] / time_step - round(t[0] / time_step)) < 1e-9):
+        return None
+    record = Path(data_file).parent / "truth.json"
+    beside = f" ({record.name} beside it records other contents: the readings were changed)" if record.exists() else ""
+    return (
+        f"{Path(data_file).name}: its t column is {t[0]:g}, {t[1]:g}, {t[2]:g}, ... s, every {time_step:g} s, as `armcal simulate` "
+        f"writes it{beside}; if these are real readings, those are not their times: they feed the drift test "
+        "(thermal_drift, source: time) and the plots. Put the readings' times in t (s), or delete the column"
+    )
+
+
+__all__ = ["Campaign", "find_truth", "simulate_campaign", "simulated_times", "write_simulation"]

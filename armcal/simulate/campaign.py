@@ -10,7 +10,7 @@ digitizer; a constant sigma for the others).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +39,9 @@ class Campaign:
     calibration: Measurements
     validation: Measurements | None
     truth: dict
-    dropped: dict[str, dict[str, int]]
+    dropped: dict[str, dict[str, int]]  # per data set, planned poses dropped per reason ("c1-s1: joint limit (j2)")
+    where: dict[str, dict[str, list[str]]] = field(default_factory=dict)  # per data set and reason, which points
+    lost: dict[str, dict[str, int]] = field(default_factory=dict)  # per data set and key, readings the true robot put out of range
 
 
 def simulate_campaign(spec: Spec, spec_dir: Path) -> Campaign:
@@ -83,17 +85,18 @@ class CampaignSimulator:
         truth_rng, *noise_rngs = (np.random.default_rng(s) for s in sequence.spawn(3))
         robot = TrueRobot.draw(self.kinematics, self.settings, truth_rng)
         pd = _true_device_parameters(self.device, self.settings, robot.effects, truth_rng)
-        sets, dropped, start = [], {}, 0.0
+        sets, dropped, where, lost, start = [], {}, {}, {}, 0.0
         for (name, planned), rng in zip(self.plans.items(), noise_rngs):
             if planned is None:
                 sets.append(None)
                 continue
-            measurements = _measure(self.spec, self.settings, robot, self.device, pd, planned, rng, start)
+            measurements, lost[name] = _measure(self.spec, self.settings, robot, self.device, pd, planned, rng, start)
             start = float(measurements.extras["t"][-1]) + self.settings.time_step
             sets.append(measurements)
             dropped[name] = planned.dropped
+            where[name] = planned.where
         truth = {**robot.describe(), "device_parameters": dict(zip(self.device.parameters.names, pd.tolist()))}
-        return Campaign(sets[0], sets[1], truth, dropped)
+        return Campaign(sets[0], sets[1], truth, dropped, where, lost)
 
 
 def _true_device_parameters(device: DeviceModel, settings: fx.Simulate, effects: EffectSet, rng: np.random.Generator) -> np.ndarray:
@@ -119,7 +122,9 @@ def _extras(settings: fx.Simulate, count: int, start: float, rng: np.random.Gene
     return extras
 
 
-def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned: Plan, rng, start: float) -> Measurements:
+def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned: Plan, rng, start: float) -> tuple[Measurements, dict[str, int]]:
+    """The readings of the planned samples on the true robot, and per key how many it could not read (out of the
+    instrument's range on the true robot, though the nominal model planned them within it)."""
     count = len(planned)
     extras = _extras(settings, count, start, rng, robot.kinematics.dof)
     channels = {c.name: c for key in dict.fromkeys(planned.keys) for c in device.channels(key)}
@@ -127,6 +132,7 @@ def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned:
     keep = np.ones(count, dtype=bool)
     keys = np.empty(count, dtype=object)
     keys[:] = planned.keys
+    lost: dict[str, int] = {}
     q = planned.q.copy()
     for key in dict.fromkeys(planned.keys):
         rows = np.flatnonzero([k == key for k in planned.keys])
@@ -142,16 +148,21 @@ def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned:
                 readings.setdefault(name, np.full(count, np.nan))[rows] = column
         elif settings.noise:
             values = values + rng.normal(size=values.shape) * device.sigma(key, values) * settings.noise_factor
+            if target is not None:
+                keep[rows] &= device.measurable(key, values)  # the noise carried a reading at the edge out of range
+        if not keep[rows].all():
+            lost["-".join(str(k) for k in key if k)] = int((~keep[rows]).sum())
         if target is None:
             q[rows] = np.nan  # not a robot pose: no joint readings
         for c, channel in enumerate(device.channels(key)):
             readings[channel.name][rows] = values[:, c]
-    return Measurements(
+    measured = Measurements(
         keys=tuple(keys[keep]),
         q=q[keep],
         readings={name: column[keep] for name, column in readings.items() if not name.startswith("rod_")},
         extras={**{name: value[keep] for name, value in extras.items()}, **{n: c[keep] for n, c in readings.items() if n.startswith("rod_")}},
     )
+    return measured, lost
 
 
 def _sonic_physics(spec, settings, device: SonicModel, key, distances, poses, pd, rng):

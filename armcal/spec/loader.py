@@ -274,3 +274,8 @@ def plain_message(error: dict, loc: Loc, data: Any = None) -> str:
         message = str(ctx.get("error", error["msg"]))
         return message[:1].upper() + message[1:] + ("" if message.endswith(".") else ".")
     return error["msg"]
+
+
+def spec_line(loaded: LoadedSpec, loc: Loc) -> int | None:
+    """The line of a spec key (or of the nearest enclosing key the file has), for messages that point into the spec."""
+    return _position(tuple(loc), parse_yaml(loaded.text, loaded.path))[0]

@@ -71,8 +71,9 @@ class PlanStudy:
         """Candidates a plan may add (the existing poses are not among them)."""
         return len(self.candidates) - self.existing
 
-    def planned(self, count: int) -> ps.Selection:
-        return ps.select(self.information.blocks, count, self.existing, self.criterion, self.weight)
+    def planned(self, count: int, criterion: str | None = None) -> ps.Selection:
+        """``count`` poses chosen by ``criterion`` (D or I; default the study's) after the existing ones."""
+        return ps.select(self.information.blocks, count, self.existing, criterion or self.criterion, self.weight)
 
     def random(self, count: int, robot: int) -> np.ndarray:
         """Robot ``robot``'s random design: the existing poses and ``count`` candidates drawn at random."""
@@ -108,34 +109,33 @@ class AccuracyCurve:
     """Held-out accuracy (mm) against the number of poses, planned and random, robot by robot."""
 
     counts: np.ndarray  # (k,) poses added
-    planned: np.ndarray  # (runs, k)
-    random: dict[int, np.ndarray]  # factor f -> (runs, k): f x count random poses
-    linearised_planned: np.ndarray  # (k,) sqrt(trace W M^-1) of the planned designs, mm
-
-    def mean(self, values: np.ndarray) -> np.ndarray:
-        """Mean over the robots (NaN where any robot's design could not be identified)."""
-        return values.mean(axis=0)
+    planned: dict[str, np.ndarray]  # criterion (D, I) -> (runs, k)
+    random: dict[int, np.ndarray]  # factor f -> (runs, k): f x count random poses (NaN where the pool is too small)
+    linearised: dict[str, np.ndarray]  # criterion -> (k,) sqrt(trace W M^-1) of the planned designs, mm
 
 
-def accuracy_curve(study: PlanStudy, counts, runs: int, factors=(1,), progress: Callable[[int, int], None] | None = None) -> AccuracyCurve:
-    """Planned and random designs of each count (and ``factors`` x count random poses), scored on ``runs`` robots
-    (the same robots for every design): arrays for a plot of accuracy against the number of poses."""
+def accuracy_curve(study: PlanStudy, counts, runs: int, factors=(1,), criteria=("D",), progress: Callable[[int, int], None] | None = None) -> AccuracyCurve:
+    """Planned designs of each count (by each criterion) and random ones of ``factors`` x count poses, scored on
+    ``runs`` robots (the same robots for every design): arrays for a plot of accuracy against the number of
+    poses. The mean over the robots (axis 0) is the figure; NaN marks a design too small to identify."""
     counts = np.asarray(counts, dtype=int)
     seeds = robot_seeds(study.seed, runs)
-    total, done = runs * len(counts) * (1 + len(factors)), 0
-    planned = np.full((runs, len(counts)), np.nan)
+    total, done = len(counts) * (len(criteria) + len(factors)), 0
+    planned = {c: np.full((runs, len(counts)), np.nan) for c in criteria}
     random = {f: np.full((runs, len(counts)), np.nan) for f in factors}
-    linearised = np.zeros(len(counts))
+    linearised = {c: np.zeros(len(counts)) for c in criteria}
     for j, count in enumerate(counts):
-        rows = study.planned(int(count)).rows
-        linearised[j] = study.linearised(rows)
-        for r, seed in enumerate(seeds):
-            planned[r, j] = study.accuracy(rows, seed)
+        for criterion in criteria:
+            rows = study.planned(int(count), criterion).rows
+            linearised[criterion][j] = study.linearised(rows)
+            planned[criterion][:, j] = [study.accuracy(rows, seed) for seed in seeds]
             done += 1
-            for f in factors:
-                if f * count <= study.pool:
-                    random[f][r, j] = study.accuracy(study.random(int(f * count), r), seed)
-                done += 1
+            if progress is not None:
+                progress(done, total)
+        for f in factors:
+            if f * count <= study.pool:
+                random[f][:, j] = [study.accuracy(study.random(int(f * count), r), seed) for r, seed in enumerate(seeds)]
+            done += 1
             if progress is not None:
                 progress(done, total)
     return AccuracyCurve(counts, planned, random, linearised)

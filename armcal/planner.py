@@ -33,7 +33,10 @@ MAX_CANDIDATES = 200_000
 DEFAULT_CANDIDATES = 2000
 DEFAULT_RUNS = 50
 DEVICES = ("tracker", "theodolite", "ballbar")
-CRITERION = "D-optimal: maximum log det of the information matrix J^T J on the base parameters (J weighted by 1/sigma)"
+CRITERIA = {
+    "D": "D-optimal: maximum log det of the information matrix M = J^T J on the base parameters (J weighted by 1/sigma)",
+    "I": "I-optimal: minimum trace(W M^-1), the linearised mean squared held-out position error (M = J^T J on the base parameters)",
+}
 
 
 @dataclass(frozen=True)
@@ -49,7 +52,7 @@ def side_file(out: Path) -> Path:
 
 
 def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | None, out: Path, force: bool,
-                 runs: int, seed: int | None, progress: Callable[[int, int], None] | None = None,
+                 runs: int, seed: int | None, criterion: str = "D", progress: Callable[[int, int], None] | None = None,
                  say: Callable[[str], None] = lambda line: None) -> tuple[PosePlan, list[Path]]:
     """Plan, predict and write POSES.csv and POSES.json; a user error for anything the user can fix."""
     if not 1 <= poses <= MAX_POSES:
@@ -58,6 +61,8 @@ def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | No
         raise UserError(f"--candidates {candidates}: give a number of candidates from 1 to {MAX_CANDIDATES}")
     if candidates < poses:
         raise UserError(f"--candidates {candidates} is fewer than --poses {poses}: the poses are chosen among the candidates")
+    if criterion not in CRITERIA:
+        raise UserError(f"--criterion {criterion}: choose D (the default) or I")
     if runs < 0:
         raise UserError(f"--runs {runs}: give 0 (no Monte Carlo) or more simulated robots")
     refuse_replacing([out, side_file(out)], [spec_path, *([extend] if extend else [])], force)
@@ -68,11 +73,11 @@ def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | No
     seed = (spec.simulate.seed if spec.simulate else 0) if seed is None else seed
     say(f"candidates: {candidates} random poses{' on the shells (inverse kinematics)' if spec.device.type == 'ballbar' else ''} ...")
     existing_q, existing_keys, existing = _existing(spec, extend)
-    study = PlanStudy(spec, loaded.path.parent, candidates, seed, existing)
+    study = PlanStudy(spec, loaded.path.parent, candidates, seed, existing, criterion)
     if study.pool < poses:
         raise UserError(f"only {study.pool} of {candidates} candidates are readable ({_dropped(study.fresh_dropped)}); "
                         f"ask for more --candidates or fewer --poses")
-    say(f"selecting {poses} of {study.pool} candidates ({CRITERION.split(':')[0]}) ...")
+    say(f"selecting {poses} of {study.pool} candidates ({CRITERIA[criterion].split(':')[0]}) ...")
     selection = study.planned(poses)
     covariance = selection.covariance()
     info = study.information
@@ -146,11 +151,11 @@ def _summary(loaded, study: PlanStudy, selection, covariance, readings, accuracy
     std = np.sqrt(np.diag(covariance))
     parameters = [{"name": name, "unit": _unit(spec, kind), "std": from_internal(s, kind, _unit(spec, kind)) if kind in ("length", "angle") else float(s)}
                   for name, kind, s in zip(info.base, info.kinds, std)]
-    metric = "3D position error of the targets (in the instrument frame)" if spec.device.type != "ballbar" else "bar-length error"
+    metric = "3D position error of the targets (instrument frame)" if spec.device.type != "ballbar" else "bar-length error"
     summary = {
         "armcal_version": __version__,
         "spec": {"path": str(loaded.path), "sha256": loaded.sha256},
-        "criterion": CRITERION,
+        "criterion": CRITERIA[study.criterion],
         "poses": {"planned": poses, "existing": kept, "extended": str(extend) if extend else None, "readings": readings},
         "candidates": {"drawn": candidates, "readable": study.pool, "dropped": study.fresh_dropped, "seed": seed},
         "base_parameters": len(info.base),
@@ -161,8 +166,8 @@ def _summary(loaded, study: PlanStudy, selection, covariance, readings, accuracy
     }
     if accuracy is not None:
         summary["held_out_accuracy"] = {
-            "definition": f"RMS over {HELD_OUT} independent held-out candidate poses of the {metric} of the model calibrated "
-                          "from the plan's noisy readings, against the true robot's noise-free readings",
+            "definition": f"RMS {metric} at {HELD_OUT} independent held-out poses: the model calibrated from the plan's "
+                          "noisy readings against the true robot's noise-free readings",
             "unit": "mm",
             "robots": len(accuracy["planned"]),
             "planned": _stats(accuracy["planned"]),
@@ -195,7 +200,7 @@ def _text(summary: dict) -> str:
         return "\n".join(lines)
     planned, random = held["planned"], held["random_same_count"]
     fmt = lambda s: f"{s['mean']:.4g} mm" if s["mean"] is not None else "not identified"  # noqa: E731
-    lines += [f"  predicted held-out accuracy ({held['definition']}):",
+    lines += [f"  predicted held-out accuracy, {held['definition']}:",
               f"    planned {p['planned']}:  {fmt(planned)} (mean over {held['robots']} simulated robots; linearised, noise only: {held['linearised_planned']:.4g} mm)",
               f"    random {p['planned']}:   {fmt(random)} (the same robots; linearised: {held['linearised_random_median']:.4g} mm, median of the random designs)"]
     for name, s in (("planned", planned), ("random", random)):

@@ -56,29 +56,7 @@ def _nominal_geometry():
 
 def _independent_jacobian(Q: np.ndarray) -> np.ndarray:
     """d readings / d parameters (3 rows a pose), central differences of the independent model."""
-    geom = _nominal_geometry()
-
-    def changed(kind, i, f, s):
-        g = sim.geom_copy(geom)
-        if kind == "row":
-            row = list(g["rows"][i])
-            row[f] += s
-            g["rows"][i] = tuple(row)
-        elif kind == "target":
-            g["targets"]["smr"] = g["targets"]["smr"] + s * np.eye(3)[f]
-        else:
-            T = np.eye(4)
-            if f < 3:
-                T[f, 3] = s
-            else:
-                a, b = [m for m in range(3) if m != f - 3]
-                T[a, b], T[b, a] = -s, s
-            g["robot_base"] = T @ g["robot_base"]
-        return sim.readings(g, "tracker", Q, None)
-
-    changes = [("row", i, f) for i, par in enumerate(geom["parallel"]) for f in range(5) if (f != 1 or not par) and (f != 4 or par)]
-    changes += [("target", 0, k) for k in range(3)] + [("base", 0, k) for k in range(6)]
-    return np.column_stack([(changed(*c, EPS) - changed(*c, -EPS)) / (2 * EPS) for c in changes])
+    return sim.geometry_jacobian(_nominal_geometry(), "tracker", Q, None, EPS)
 
 
 def _basis(J: np.ndarray) -> np.ndarray:
@@ -187,6 +165,7 @@ def test_a_ballbar_plan_is_a_spec_procedure(kuka, tmp_path):
         (["--poses", "50", "--candidates", "10"], "fewer than --poses"),
         (["--poses", "5", "--extend", "missing.csv"], "no such file"),
         (["--poses", "5", "--candidates", "-3"], "--candidates -3"),
+        (["--poses", "5", "--criterion", "A"], "--criterion A"),
     ],
 )
 def test_cli_user_mistakes_are_one_clear_message(kuka, tmp_path, args, message):

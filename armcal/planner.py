@@ -151,7 +151,8 @@ def _summary(loaded, study: PlanStudy, selection, covariance, readings, accuracy
     std = np.sqrt(np.diag(covariance))
     parameters = [{"name": name, "unit": _unit(spec, kind), "std": from_internal(s, kind, _unit(spec, kind)) if kind in ("length", "angle") else float(s)}
                   for name, kind, s in zip(info.base, info.kinds, std)]
-    metric = "3D position error of the targets (instrument frame)" if spec.device.type != "ballbar" else "bar-length error"
+    unit, scale = ("mm", 1.0) if info.metric == "length" else ("arcsec", from_internal(1.0, "angle", "arcsec"))
+    metric = {"ballbar": "bar-length error", "theodolite": "angle error (azimuth, elevation)"}.get(spec.device.type, "3D position error of the targets (instrument frame)")
     summary = {
         "armcal_version": __version__,
         "spec": {"path": str(loaded.path), "sha256": loaded.sha256},
@@ -168,12 +169,12 @@ def _summary(loaded, study: PlanStudy, selection, covariance, readings, accuracy
         summary["held_out_accuracy"] = {
             "definition": f"RMS {metric} at {HELD_OUT} independent held-out poses: the model calibrated from the plan's "
                           "noisy readings against the true robot's noise-free readings",
-            "unit": "mm",
+            "unit": unit,
             "robots": len(accuracy["planned"]),
-            "planned": _stats(accuracy["planned"]),
-            "random_same_count": _stats(accuracy["random"]),
-            "linearised_planned": accuracy["linearised_planned"],
-            "linearised_random_median": accuracy["linearised_random"],
+            "planned": _stats(scale * accuracy["planned"]),
+            "random_same_count": _stats(scale * accuracy["random"]),
+            "linearised_planned": scale * accuracy["linearised_planned"],
+            "linearised_random_median": scale * accuracy["linearised_random"],
         }
     return summary
 
@@ -199,10 +200,11 @@ def _text(summary: dict) -> str:
         lines.append("  held-out accuracy: not simulated (--runs 0)")
         return "\n".join(lines)
     planned, random = held["planned"], held["random_same_count"]
-    fmt = lambda s: f"{s['mean']:.4g} mm" if s["mean"] is not None else "not identified"  # noqa: E731
+    unit = held["unit"]
+    fmt = lambda s: f"{s['mean']:.4g} {unit}" if s["mean"] is not None else "not identified"  # noqa: E731
     lines += [f"  predicted held-out accuracy, {held['definition']}:",
-              f"    planned {p['planned']}:  {fmt(planned)} (mean over {held['robots']} simulated robots; linearised, noise only: {held['linearised_planned']:.4g} mm)",
-              f"    random {p['planned']}:   {fmt(random)} (the same robots; linearised: {held['linearised_random_median']:.4g} mm, median of the random designs)"]
+              f"    planned {p['planned']}:  {fmt(planned)} (mean over {held['robots']} simulated robots; linearised, noise only: {held['linearised_planned']:.4g} {unit})",
+              f"    random {p['planned']}:   {fmt(random)} (the same robots; linearised: {held['linearised_random_median']:.4g} {unit}, median of the random designs)"]
     for name, s in (("planned", planned), ("random", random)):
         if s["not_identified"]:
             lines.append(f"    {s['not_identified']} of {held['robots']} robots could not be identified from the {name} poses")

@@ -11,6 +11,7 @@ transform with T^T . T and T^-1 . T^-T).
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -181,3 +182,13 @@ def test_cli_refuses_to_replace_a_plan_without_force(kuka, tmp_path):
     assert result.returncode == 1 and "use --force" in result.stderr and out.read_text() == "keep me\n"
     missing = _cli(tmp_path / "nope.yaml", "--poses", 5, "--out", tmp_path / "q.csv", cwd=tmp_path)
     assert missing.returncode == 1 and "nope.yaml" in missing.stderr and "Traceback" not in missing.stderr
+
+
+def test_a_theodolite_plan_keeps_its_scale_bar_and_reports_angles(tmp_path):
+    out = tmp_path / "th.csv"
+    result = _cli(ROOT / "specs" / "puma560_theodolite.yaml", "--poses", 20, "--candidates", 300, "--runs", 4, "--out", out, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    assert len(out.read_text().splitlines()) == 21  # the bar's sightings are read in every design, never written as poses
+    held = json.loads(out.with_suffix(".json").read_text())["held_out_accuracy"]
+    assert held["unit"] == "arcsec" and held["planned"]["not_identified"] == 0
+    assert 0.5 < held["planned"]["mean"] / held["linearised_planned"] < 1.5  # noise 2 arcsec: about a few arcsec

@@ -4,7 +4,8 @@ Held-out accuracy (what ``armcal plan`` reports and docs/plan.md defines): the R
 the error of the calibrated model's predicted position readings against the true robot's noise-free readings,
 in mm. For a tracker (or any instrument reading target positions) it is the RMS 3D position error of the
 targets, in the instrument frame; for a ball-bar the RMS error of the predicted bar length (the only
-position reading it has). Orientation and angle readings do not enter it. The held-out poses are a second,
+position reading it has). Orientation and angle readings do not enter it, except for an instrument that reads
+angles only (a theodolite): there it is the RMS error of the predicted angles (azimuth, elevation), in rad. The held-out poses are a second,
 independent draw of candidates (the same distribution as the candidates the plan was chosen from: uniform in
 the joint limits and readable, or random points on the shells), so the figure is the accuracy a user gets
 over the space the candidates cover.
@@ -57,8 +58,9 @@ class PlanStudy:
         if not len(fresh):
             reasons = "; ".join(f"{count} {why}" for why, count in fresh.dropped.items())
             raise UserError(f"none of {candidates} candidate poses can be read by the instrument ({reasons}); check its placement in the spec")
-        self.existing = 0 if existing is None else len(existing)
-        self.candidates = fresh if existing is None else ps.Candidates.join(existing, fresh)
+        fixed = ps.fixed_readings(spec, self.kinematics)  # first: never exchanged, never written as a pose
+        self.existing = sum(len(c) for c in (fixed, existing) if c is not None)
+        self.candidates = ps.Candidates.joined([fixed, existing, fresh])
         self.information = ps.information(spec, self.kinematics, self.device, self.candidates)
         self.weight = self.information.prediction_weight()
         held = ps.candidate_poses(spec, self.kinematics, self.device, HELD_OUT, seed + 1)
@@ -83,10 +85,10 @@ class PlanStudy:
     def linearised(self, rows) -> float:
         """sqrt(trace(W M^-1)), mm: the noise's share of the held-out accuracy (inf where M is singular)."""
         covariance = ps.Selection(np.asarray(rows), ps.design_information(self.information.blocks, rows), self.criterion).covariance()
-        return float(np.sqrt(np.trace(self.weight @ covariance)))
+        return float(np.sqrt(np.trace(self.weight @ covariance))) if np.isfinite(covariance).all() else float("inf")
 
     def accuracy(self, rows, seed: np.random.SeedSequence) -> float:
-        """Held-out accuracy (mm, module doc) of the robot of ``seed`` calibrated at the poses ``rows``; NaN where
+        """Held-out accuracy (mm; rad for angles-only instruments; module doc) of the robot of ``seed`` calibrated at the poses ``rows``; NaN where
         the design has too few readings to identify the model."""
         plans = {"calibration": self.candidates.plan(rows), "validation": self.held_out}
         campaign = self.simulator.run(seed, plans, exact=("validation",))
@@ -98,7 +100,7 @@ class PlanStudy:
         problem = build_problem(self.kinematics, self.device, truth, self.effects)
         r, _ = problem.evaluate(result.theta)
         residuals = problem.residuals
-        length = np.array([k == "length" for k in residuals.kind])
+        length = np.array([k == self.information.metric for k in residuals.kind]) & (residuals.sample >= 0)
         error = (r * residuals.sigma)[length]
         samples = np.unique(residuals.sample[length])
         return float(np.sqrt(np.sum(error**2) / len(samples)))

@@ -43,7 +43,7 @@ from armcal.identify.problem import build_problem
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel
 from armcal.procedures.plan import Plan
-from armcal.procedures.poses import pose_keys
+from armcal.procedures.poses import pose_keys, scale_bar_sightings
 from armcal.spec.model import Spec
 from armcal.spec.procedure import Shells
 
@@ -73,6 +73,15 @@ class Candidates:
         return Plan(keys, q)
 
     @staticmethod
+    def joined(parts: list["Candidates | None"]) -> "Candidates":
+        """The parts that are not None, in order."""
+        present = [c for c in parts if c is not None]
+        out = present[0]
+        for part in present[1:]:
+            out = Candidates.join(out, part)
+        return out
+
+    @staticmethod
     def join(first: "Candidates", second: "Candidates") -> "Candidates":
         dropped = {**first.dropped}
         for why, count in second.dropped.items():
@@ -87,6 +96,13 @@ def candidate_poses(spec: Spec, kinematics: KinematicModel, device: DeviceModel,
         return _ballbar_candidates(spec, kinematics, device, count, rng)
     Q = rng.uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (count, kinematics.dof))
     return keyed_candidates(Q, spec, kinematics, device)
+
+
+def fixed_readings(spec: Spec, kinematics: KinematicModel) -> Candidates | None:
+    """What every design of the spec's instrument reads besides its poses, as one entry to keep first in a
+    design: a theodolite's scale-bar sightings (with the bar's length, a pseudo-observation); None if nothing."""
+    bar = scale_bar_sightings(spec.device, kinematics.dof)
+    return None if bar is None else Candidates(np.zeros((1, kinematics.dof)), (bar.keys,), {})
 
 
 def keyed_candidates(Q: np.ndarray, spec: Spec, kinematics: KinematicModel, device: DeviceModel) -> Candidates:
@@ -155,21 +171,26 @@ class Information:
     """Per candidate pose its weighted Jacobian rows on the base set, and its unweighted position rows."""
 
     blocks: np.ndarray  # (N, K, p): rows over sigma (zero rows pad poses with fewer readings)
-    positions: np.ndarray  # (N, K, p): the rows of length readings in their unit (mm), others zero
+    positions: np.ndarray  # (N, K, p): the rows of the held-out metric's readings (``metric``) unweighted, others zero
     identifiability: Identifiability
     kinds: tuple[str, ...]  # per base parameter: length | angle | scale
+    metric: str = "length"  # the readings the held-out accuracy is about: length (positions), or angle where none are
+    samples: np.ndarray | None = None  # (N,) per candidate, its samples (key read at the pose) with such readings
 
     @property
     def base(self) -> tuple[str, ...]:
         return self.identifiability.base
 
     def prediction_weight(self) -> np.ndarray:
-        """W (p, p): the average over the candidates of their position rows' G^T G (the held-out metric's)."""
-        return np.einsum("nkp,nkq->pq", self.positions, self.positions) / len(self.positions)
+        """W (p, p): the average over the candidates' samples of their metric rows' G^T G, so that trace(W M^-1) is
+        the mean squared error of a held-out sample (a target's 3D position, a bar length, a sighting's angles)."""
+        count = self.samples.sum() if self.samples is not None else len(self.positions)
+        return np.einsum("nkp,nkq->pq", self.positions, self.positions) / count
 
 
 def information(spec: Spec, kinematics: KinematicModel, device: DeviceModel, candidates: Candidates) -> Information:
-    """The candidates' Jacobian rows at the design point, on the base set decided over all of them."""
+    """The candidates' Jacobian rows at the design point, on the base set decided over all of them; a reading that
+    belongs to no pose (a theodolite's scale-bar length) counts with the first entry (``fixed_readings``')."""
     plan = candidates.plan(range(len(candidates)))
     pose = np.repeat(np.arange(len(candidates)), [len(k) for k in candidates.keys])
     readings: dict[str, np.ndarray] = {}
@@ -184,7 +205,7 @@ def information(spec: Spec, kinematics: KinematicModel, device: DeviceModel, can
     design = analyse(J, problem.parameters, problem.parameters.free)
     base = [problem.parameters.index(name) for name in design.base]
     residuals = problem.residuals
-    owner = pose[residuals.sample]
+    owner = np.where(residuals.sample >= 0, pose[np.maximum(residuals.sample, 0)], 0)
     slot = np.zeros(len(owner), dtype=int)
     counts: dict[int, int] = {}
     for r, i in enumerate(owner):
@@ -192,10 +213,13 @@ def information(spec: Spec, kinematics: KinematicModel, device: DeviceModel, can
     blocks = np.zeros((len(candidates), max(counts.values()), len(base)))
     blocks[owner, slot] = J[:, base]
     positions = np.zeros_like(blocks)
-    length = np.array([k == "length" for k in residuals.kind])
-    positions[owner[length], slot[length]] = J[length][:, base] * residuals.sigma[length, None]
+    on_poses = residuals.sample >= 0
+    metric = "length" if "length" in np.array(residuals.kind)[on_poses] else "angle"  # a theodolite reads angles only
+    rows = np.array([k == metric for k in residuals.kind]) & on_poses
+    positions[owner[rows], slot[rows]] = J[rows][:, base] * residuals.sigma[rows, None]
     kinds = tuple(problem.parameters.entries[b].kind for b in base)
-    return Information(blocks, positions, design, kinds)
+    read = np.unique(residuals.sample[rows])
+    return Information(blocks, positions, design, kinds, metric, np.bincount(pose[read], minlength=len(candidates)))
 
 
 @dataclass(frozen=True)

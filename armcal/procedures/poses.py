@@ -54,11 +54,16 @@ def plan_poses(procedure: Poses, kinematics: KinematicModel, device: DeviceModel
         if (~visible).any():
             dropped[f"{'/'.join(key)} not visible"] = int((~visible).sum())
     plan = Plan(tuple(keys), np.concatenate(rows), dropped)
-    if isinstance(device_spec, Theodolite) and device_spec.scale_bar is not None:
-        bar_keys = [(station, end) for station in device_spec.stations for end in BAR_ENDS] * BAR_SIGHTINGS
-        zero = np.zeros((len(bar_keys), kinematics.dof))
-        plan = Plan.join([plan, Plan(tuple(bar_keys), zero)])
-    return plan
+    bar = scale_bar_sightings(device_spec, kinematics.dof)
+    return plan if bar is None else Plan.join([plan, bar])
+
+
+def scale_bar_sightings(device_spec, dof: int) -> Plan | None:
+    """A theodolite's scale-bar marks, sighted BAR_SIGHTINGS times from every station (no robot pose); None without a bar."""
+    if not isinstance(device_spec, Theodolite) or device_spec.scale_bar is None:
+        return None
+    bar_keys = [(station, end) for station in device_spec.stations for end in BAR_ENDS] * BAR_SIGHTINGS
+    return Plan(tuple(bar_keys), np.zeros((len(bar_keys), dof)))
 
 
 def _keyed_poses(Q: np.ndarray, keys: tuple[Key, ...], kinematics: KinematicModel, device: DeviceModel) -> Plan:

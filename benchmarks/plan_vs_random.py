@@ -14,7 +14,7 @@ design (common random numbers). Random poses are drawn from the same readable ca
 from (uniform in the joint limits; random shell points for the ball-bar). "planned D" is what armcal plan
 uses; "planned I" the I-optimal alternative (min average prediction variance at held-out poses).
 
-Run: .venv/bin/python benchmarks/plan_vs_random.py [--runs R]   (prints one table; ~5 min at R = 100)
+Run: .venv/bin/python benchmarks/plan_vs_random.py [--runs R] [--plots DIR]   (prints one table; ~8 min at R = 100)
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ import numpy as np  # noqa: E402
 
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve  # noqa: E402
 from armcal.new_spec import new_spec_text  # noqa: E402
+from armcal.report.plan_plots import accuracy_plot  # noqa: E402
 from armcal.robot_library import library_robot  # noqa: E402
 from armcal.spec import load_spec  # noqa: E402
 
@@ -91,7 +92,7 @@ def worth(row: dict) -> float:
     return float(3 ** (np.log(row["random"] / row["D"]) / np.log(row["random"] / row["random3"])))
 
 
-def run(runs: int) -> list[dict]:
+def run(runs: int, plots: Path | None = None) -> list[dict]:
     rows = []
     with tempfile.TemporaryDirectory() as folder:
         for name, spec, counts, device in cases(Path(folder)):
@@ -102,6 +103,10 @@ def run(runs: int) -> list[dict]:
                              "random": mean(curve.random[1][:, j]), "random3": mean(curve.random[3][:, j]),
                              "linearised": float(curve.linearised["D"][j]), "base": len(study.information.base),
                              "readable": study.pool})
+            if plots is not None:
+                plots.mkdir(parents=True, exist_ok=True)
+                title = f"{name}, mean over {runs} simulated robots"
+                (plots / f"{name.replace(' ', '_').replace(',', '')}.svg").write_text(accuracy_plot(curve.values(), "mm", title))
             print(f"# {name}: {study.pool} readable candidates of {CANDIDATES[device]}, {len(study.information.base)} base parameters, "
                   f"largest leverage / mean leverage {leverage_ratio(study.information.blocks):.2f}, {time.perf_counter() - started:.0f} s", flush=True)
     return rows
@@ -110,8 +115,9 @@ def run(runs: int) -> list[dict]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=100, help="simulated robots per design")
+    parser.add_argument("--plots", type=Path, help="a folder for one SVG per case: accuracy against N")
     args = parser.parse_args()
-    rows = run(args.runs)
+    rows = run(args.runs, args.plots)
     print(table(rows))
     print(f"held-out accuracy in mm, mean over {args.runs} simulated robots (the same for every design); "
           "D/rand 3N < 1: N planned poses beat 3N random ones; worth: the planned N are as good as worth x N random poses; "

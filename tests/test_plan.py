@@ -23,10 +23,11 @@ import scipy.linalg
 import independent_sim as sim
 from armcal.devices import device_model
 from armcal.evaluate.montecarlo import robot_seeds
-from armcal.evaluate.plan_accuracy import PlanStudy
+from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve
 from armcal.kinematics.compiler import compile_robot
 from armcal.new_spec import new_spec_text
 from armcal.procedures import pose_selection as ps
+from armcal.report.plan_plots import accuracy_plot
 from armcal.robot_library import library_robot
 from armcal.simulate.campaign import CampaignSimulator
 from armcal.spec import load_spec
@@ -126,6 +127,10 @@ def test_planned_poses_beat_as_many_random_poses_on_simulated_robots(kuka):
     assert np.isfinite(ours).all() and np.isfinite(random).all()
     assert ours.mean() < 0.85 * random.mean()  # measured 0.036 vs 0.049 mm (ratio 0.73)
     assert ours.mean() == pytest.approx(study.linearised(planned), rel=0.25)  # the noise's share dominates
+    curve = accuracy_curve(study, [15], runs=3, factors=(1,))  # the same robots, the same designs: the same figures
+    assert np.array_equal(curve.planned["D"][:, 0], ours[:3]) and np.array_equal(curve.random[1][:, 0], random[:3])
+    drawn = accuracy_plot(curve.values(), "mm", "KR 6 R900")
+    assert drawn.lstrip().startswith("<?xml") and "random N" in drawn and "planned (D-optimal)" in drawn
 
 
 def _cli(*args, cwd):

@@ -115,6 +115,13 @@ class AccuracyCurve:
     random: dict[int, np.ndarray]  # factor f -> (runs, k): f x count random poses (NaN where the pool is too small)
     linearised: dict[str, np.ndarray]  # criterion -> (k,) sqrt(trace W M^-1) of the planned designs, mm
 
+    def values(self) -> dict:
+        """Plain values (JSON, report/plan_plots.accuracy_plot): the counts and each design's mean over the robots."""
+        mean = lambda a: [float(v) if np.isfinite(v) else None for v in a.mean(axis=0)]  # noqa: E731
+        return {"counts": self.counts.tolist(), "planned": {c: mean(a) for c, a in self.planned.items()},
+                "random": {str(f): mean(a) for f, a in self.random.items()},
+                "linearised": {c: a.tolist() for c, a in self.linearised.items()}}
+
 
 def accuracy_curve(study: PlanStudy, counts, runs: int, factors=(1,), criteria=("D",), progress: Callable[[int, int], None] | None = None) -> AccuracyCurve:
     """Planned designs of each count (by each criterion) and random ones of ``factors`` x count poses, scored on

@@ -409,6 +409,28 @@ def compare_calibrations(
 
 
 @app.command(cls=Command)
+@user_errors
+def plan(
+    spec: SpecArg,
+    poses: Annotated[int, typer.Option("--poses", help="Poses to plan.", metavar="N")],
+    out: Annotated[Path, typer.Option("--out", help="The pose list to write (CSV: q1..qN in the spec's units); POSES.json beside it.", metavar="POSES")],
+    candidates: Annotated[int, typer.Option("--candidates", help="Random candidate poses to choose from.", metavar="M")] = 2000,
+    extend: Annotated[Path | None, typer.Option("--extend", help="A pose list to keep and add N poses to.", metavar="CSV")] = None,
+    runs: Annotated[int, typer.Option("--runs", help="Simulated robots that predict the held-out accuracy (0: none).", metavar="R")] = 50,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the candidates and robots (default: the spec's simulate.seed).", metavar="N", min=0)] = None,
+    criterion: Annotated[str, typer.Option("--criterion", help="D (log det of the information, the default) or I (average held-out prediction variance).", metavar="D|I")] = "D",
+    force: Annotated[bool, typer.Option("--force", help="Replace existing POSES and POSES.json.")] = False,
+) -> None:
+    """Choose N calibration poses from M readable candidates (D-optimal), with predicted uncertainties and accuracy (docs/plan.md)."""
+    from armcal.planner import plan_command
+
+    say = lambda line: typer.echo(line, err=True)  # noqa: E731
+    with _progress_bar("robots") as show:
+        result, written = plan_command(spec, poses, candidates, extend, out, force, runs, seed, criterion, show, say)
+    typer.echo(result.text + f"\nwrote {', '.join(str(p) for p in written)}")
+
+
+@app.command(cls=Command)
 def version() -> None:
     """Print armcal's version."""
     typer.echo(__version__)

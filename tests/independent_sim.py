@@ -193,38 +193,43 @@ def visible_part(geom, device, q, keys, signature, eps=1e-5):
     """The signature minus its least-squares projection onto the columns of the spec's free
     geometry (theta d a alpha per joint, beta instead of d on parallel axes, target offsets,
     the tracker pose): what a fitted geometric model cannot absorb. Central differences."""
-    def column(change):
-        hi, lo = (readings(change(geom_copy(geom), s), device, q, keys) for s in (eps, -eps))
-        return (hi - lo) / (2 * eps)
-
-    def row_change(i, f):
-        def change(g, s):
-            row = list(g["rows"][i]); row[f] += s; g["rows"][i] = tuple(row); return g
-        return change
-
-    def target_change(name, k):
-        def change(g, s):
-            g["targets"][name] = g["targets"][name] + s * np.eye(3)[k]; return g
-        return change
-
-    def base_change(k):  # small translation / rotation of the tracker frame
-        def change(g, s):
-            T = np.eye(4)
-            if k < 3:
-                T[k, 3] = s
-            else:
-                a, b = [m for m in range(3) if m != k - 3]
-                T[a, b], T[b, a] = -s, s
-            g["robot_base"] = T @ g["robot_base"]; return g
-        return change
-
-    changes = [row_change(i, f) for i, par in enumerate(geom["parallel"]) for f in range(5)
-               if (f != 1 or not par) and (f != 4 or par)]
-    changes += [target_change(n, k) for n in geom["targets"] for k in range(3)]
-    changes += [base_change(k) for k in range(6)] if device == "tracker" else []
-    J = np.column_stack([column(c) for c in changes])
+    J = geometry_jacobian(geom, device, q, keys, eps)
     J /= np.linalg.norm(J, axis=0) + 1e-300
     return signature - J @ np.linalg.lstsq(J, signature, rcond=1e-10)[0]
+
+
+def geometry_changes(geom, device):
+    """The spec's free geometry as changes (kind, index, field): DH rows (theta d a alpha, beta
+    instead of d on parallel axes), target offsets, small shifts and turns of the tracker frame."""
+    changes = [("row", i, f) for i, par in enumerate(geom["parallel"]) for f in range(5)
+               if (f != 1 or not par) and (f != 4 or par)]
+    changes += [("target", name, k) for name in geom["targets"] for k in range(3)]
+    return changes + ([("base", None, k) for k in range(6)] if device == "tracker" else [])
+
+
+def changed(geom, change, s):
+    """A copy of geom with one change (geometry_changes) of size s (rad, mm)."""
+    kind, index, f = change
+    g = geom_copy(geom)
+    if kind == "row":
+        row = list(g["rows"][index]); row[f] += s; g["rows"][index] = tuple(row)
+    elif kind == "target":
+        g["targets"][index] = g["targets"][index] + s * np.eye(3)[f]
+    else:  # a small translation / rotation of the tracker frame
+        T = np.eye(4)
+        if f < 3:
+            T[f, 3] = s
+        else:
+            a, b = [m for m in range(3) if m != f - 3]
+            T[a, b], T[b, a] = -s, s
+        g["robot_base"] = T @ g["robot_base"]
+    return g
+
+
+def geometry_jacobian(geom, device, q, keys, eps=1e-5):
+    """d readings / d geometry (geometry_changes' columns), central differences."""
+    column = lambda c: (readings(changed(geom, c, eps), device, q, keys) - readings(changed(geom, c, -eps), device, q, keys)) / (2 * eps)  # noqa: E731
+    return np.column_stack([column(c) for c in geometry_changes(geom, device)])
 
 
 def geom_copy(geom):

@@ -11,7 +11,7 @@ from conftest import ROOT, SPECS, armcal_cli
 from armcal.spec import load_spec
 
 # the commands README.md lists (and `version`): the help must offer each of them
-COMMANDS = ["validate", "schema", "fk", "simulate", "run", "report", "montecarlo", "batch", "import-ipa", "new", "export", "compensate", "import-urdf", "compare", "version"]
+COMMANDS = ["validate", "schema", "fk", "simulate", "run", "report", "montecarlo", "batch", "import-ipa", "new", "export", "compensate", "import-urdf", "compare", "plan", "version"]
 TYPE_PLACEHOLDER = re.compile(r"<(bool|path|str|int|float|list|text)\b|\{\w+\}")
 
 

@@ -202,9 +202,21 @@ def read_measurements(path: Path, spec: Spec) -> Measurements:
 
 def read_joint_file(path: Path, spec: Spec) -> np.ndarray:
     """Joint values (N, n) from a pose list with columns q1..qN (and optionally sample)."""
+    return read_pose_file(path, spec)[0]
+
+
+def read_pose_file(path: Path, spec: Spec) -> tuple[np.ndarray, tuple | None]:
+    """Joint values (N, n) of a pose list and, for a ball-bar, the key each pose is read with.
+
+    Columns q1..qN, optionally sample; a ball-bar's pose list also has pivot and sphere (and optionally
+    extension), the bar each pose is measured with (``armcal plan`` writes them). Other devices read every
+    pose on each of their keys: their keys are None.
+    """
     joints = {f"q{i}": ("angle" if j.type == "revolute" else "length") for i, j in enumerate(spec.robot.joints, start=1)}
-    _, values, _, _ = _rows(Path(path), spec, lambda header: Layout((), joints, {"sample": "text"}))
-    return np.stack([values[c] for c in joints], axis=1)
+    bar = {"pivot": "text", "sphere": "text"} if spec.device.type == "ballbar" else {}
+    cols, values, text, count = _rows(Path(path), spec, lambda header: Layout(("pivot", "sphere") if bar else (), {**joints, **bar}, {"sample": "text", **({"extension": "text"} if bar else {})}))
+    keys = _keys(spec, cols, text, count) if bar else None
+    return np.stack([values[c] for c in joints], axis=1), keys
 
 
 def _unique_samples(samples: list[str], column: int, problems: _Problems) -> None:

@@ -29,7 +29,7 @@ from armcal.diagnose.stage import calibration_problem
 from armcal.errors import UserError
 from armcal.evaluate.grid import GRID_UNREACHABLE, grid_control, grid_indices, measured_point
 from armcal.identify.feature_fit import feature_parameters
-from armcal.identify.fit import fit
+from armcal.identify.fit import FitResult, fit
 from armcal.identify.problem import combined_parameters
 from armcal.simulate.campaign import CampaignSimulator
 from armcal.simulate.truth import TrueRobot
@@ -86,15 +86,20 @@ class RobotStudy:
     def _identify(self, raw) -> tuple[np.ndarray, bool]:
         """The spec's method: Stone's features alone (as in his study), or Levenberg-Marquardt with the
         spec's declared effects from the same start as `armcal run` (the diagnosis is not run in a study)."""
-        data = self.fit_device.prepare(raw)
         kinematics = self.simulator.kinematics
         if self.spec.fit.method == "s_model_features":
-            theta, _ = feature_parameters(self.spec, data, combined_parameters(kinematics, self.fit_device))
+            theta, _ = feature_parameters(self.spec, self.fit_device.prepare(raw), combined_parameters(kinematics, self.fit_device))
             return theta, True
-        problem, start = calibration_problem(self.spec, kinematics, self.fit_device, data)
-        result = fit(problem, self.spec.fit, start=start, identifiability=self.design)
+        result = identify_simulated(self.spec, kinematics, self.fit_device, raw, self.design)
         self.design = result.identifiability  # the study's base set: every robot is measured at the same poses
         return result.theta, bool(result.solver.converged)
+
+
+def identify_simulated(spec: Spec, kinematics, fit_device, raw, design=None) -> FitResult:
+    """Levenberg-Marquardt on simulated readings ``raw`` with the spec's declared effects, from the same start
+    as `armcal run` (no diagnosis); ``design``: the base set to keep (None: decided at the start)."""
+    problem, start = calibration_problem(spec, kinematics, fit_device, fit_device.prepare(raw))
+    return fit(problem, spec.fit, start=start, identifiability=design)
 
 
 def _values(indices: dict[str, float]) -> np.ndarray:

@@ -56,7 +56,7 @@ class CampaignSimulator:
     same readings, whoever runs it (Monte-Carlo studies draw robot i from seed i).
     """
 
-    def __init__(self, spec: Spec, spec_dir: Path, validation: bool = True):
+    def __init__(self, spec: Spec, spec_dir: Path, validation: bool = True, calibration: bool = True):
         self.spec = spec
         self.settings = spec.simulate or fx.Simulate()
         self.kinematics = compile_robot(spec.robot)
@@ -67,7 +67,7 @@ class CampaignSimulator:
                 "to simulate with (a run estimates it from the data with estimate_noise: true), or set simulate.noise: false"
             )
         self.device = device_model(spec)
-        procedures = (("calibration", spec.procedure), ("validation", spec.validation if validation else None))
+        procedures = (("calibration", spec.procedure if calibration else None), ("validation", spec.validation if validation else None))
         self.plans = {name: self._plan(name, procedure, spec_dir) for name, procedure in procedures}
 
     def _plan(self, name: str, procedure, spec_dir: Path) -> Plan | None:
@@ -79,18 +79,23 @@ class CampaignSimulator:
             raise UserError(f"the {name} procedure plans no pose the instrument can read ({reasons})")
         return planned
 
-    def run(self, seed) -> Campaign:
-        """The campaign measured on the true robot of ``seed`` (an int or a numpy SeedSequence)."""
+    def run(self, seed, plans: dict[str, Plan | None] | None = None, exact: tuple[str, ...] = ()) -> Campaign:
+        """The campaign measured on the true robot of ``seed`` (an int or a numpy SeedSequence).
+
+        ``plans`` (calibration, validation) replace the spec's procedures' (pose planning measures its own);
+        the plans named in ``exact`` are read without noise (the truth, to score a prediction against).
+        """
         sequence = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         truth_rng, *noise_rngs = (np.random.default_rng(s) for s in sequence.spawn(3))
         robot = TrueRobot.draw(self.kinematics, self.settings, truth_rng)
         pd = _true_device_parameters(self.device, self.settings, robot.effects, truth_rng)
         sets, dropped, where, lost, start = [], {}, {}, {}, 0.0
-        for (name, planned), rng in zip(self.plans.items(), noise_rngs):
+        for (name, planned), rng in zip((plans or self.plans).items(), noise_rngs):
             if planned is None:
                 sets.append(None)
                 continue
-            measurements, lost[name] = _measure(self.spec, self.settings, robot, self.device, pd, planned, rng, start)
+            settings = self.settings.model_copy(update={"noise": False}) if name in exact else self.settings
+            measurements, lost[name] = _measure(self.spec, settings, robot, self.device, pd, planned, rng, start)
             start = float(measurements.extras["t"][-1]) + self.settings.time_step
             sets.append(measurements)
             dropped[name] = planned.dropped

@@ -90,8 +90,11 @@ def _procedures(spec: Spec) -> Iterator[Problem]:
         elif isinstance(procedure, Shells):
             yield from _shells(spec, procedure, (key,))
         elif isinstance(procedure, Poses):
-            if not isinstance(spec.device, Tracker | Theodolite):
-                yield (key, "type"), f"a poses procedure needs a tracker or theodolite, not {spec.device.type}"
+            if isinstance(spec.device, BallBar):
+                if procedure.file is None:
+                    yield (key, "count"), "a ball-bar's poses come from a file with pivot and sphere columns (armcal plan writes one), not count"
+            elif not isinstance(spec.device, Tracker | Theodolite):
+                yield (key, "type"), f"a poses procedure needs a tracker, theodolite or ball-bar, not {spec.device.type}"
             if (procedure.file is None) == (procedure.count is None):
                 yield (key,), "give either a pose file (file) or a number of random poses (count)"
 

@@ -57,7 +57,7 @@ class Poses(SpecModel):
     """Poses from a CSV file of joint values, or ``count`` random poses within limits."""
 
     type: Literal["poses"]
-    file: str | None = Field(None, description="CSV of joint values q1..qN, relative to the spec")
+    file: str | None = Field(None, description="CSV of joint values q1..qN, relative to the spec; a ball-bar's also names each pose's bar (pivot, sphere, optional extension), as armcal plan writes it")
     count: int | None = Field(None, ge=1, le=MAX_PLANNED, description="number of random poses within the joint limits (without file)")
     seed: int = Field(0, ge=0, description="seed of the random poses")
 

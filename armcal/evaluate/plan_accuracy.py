@@ -1,0 +1,150 @@
+"""Predicted held-out accuracy of a pose plan: identification of many simulated robots measured at its poses.
+
+Held-out accuracy (what ``armcal plan`` reports and docs/plan.md defines): the RMS, over held-out readings, of
+the error of the calibrated model's predicted position readings against the true robot's noise-free readings,
+in mm. For a tracker (or any instrument reading target positions) it is the RMS 3D position error of the
+targets, in the instrument frame; for a ball-bar the RMS error of the predicted bar length (the only
+position reading it has). Orientation and angle readings do not enter it, except for an instrument that reads
+angles only (a theodolite): there it is the RMS error of the predicted angles (azimuth, elevation), in rad. The held-out poses are a second,
+independent draw of candidates (the same distribution as the candidates the plan was chosen from: uniform in
+the joint limits and readable, or random points on the shells), so the figure is the accuracy a user gets
+over the space the candidates cover.
+
+Robot r of a study is drawn from the r-th child of SeedSequence(seed) by the spec's manufacturing-error
+model (simulate/truth.py, Stone 7.1-7.8; never the fitted model), measured at the plan's poses with the
+instrument's noise (the simulator's, 7.9), identified as a Monte-Carlo study does (evaluate/montecarlo.py
+``identify_simulated``: Levenberg-Marquardt with the declared effects, no diagnosis), then read exactly at
+the held-out poses. Every design of a comparison is measured on the same robots (common random numbers); a
+random design of robot r is drawn from its own seed too. A design with fewer distinct readings than free
+parameters cannot be identified: its figure is NaN (not a number) and the table says so.
+
+The linearised prediction beside it, sqrt(trace(W M^-1)) with M the design's information on the base set
+and W the average position information of a held-out pose, is the noise's share alone (no manufacturing
+error left unidentified, no nonlinearity); the Monte Carlo includes both.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from armcal.devices import device_model
+from armcal.effects.library import from_spec
+from armcal.effects.model import EffectSet
+from armcal.errors import UserError
+from armcal.evaluate.montecarlo import identify_simulated, robot_seeds
+from armcal.identify.problem import build_problem
+from armcal.procedures import pose_selection as ps
+from armcal.simulate.campaign import CampaignSimulator
+from armcal.spec.model import Spec
+
+HELD_OUT = 300  # candidate draws for the held-out poses
+
+
+class PlanStudy:
+    """A spec's candidates, their information, held-out poses and simulator: plans chosen and scored."""
+
+    def __init__(self, spec: Spec, spec_dir: Path, candidates: int, seed: int = 0, existing: ps.Candidates | None = None,
+                 criterion: str = "D"):
+        self.spec, self.criterion = spec, criterion
+        self.simulator = CampaignSimulator(spec, spec_dir, validation=False, calibration=False)
+        self.kinematics = self.simulator.kinematics
+        self.device = device_model(spec, spec.fit.sonic_readings)
+        fresh = ps.candidate_poses(spec, self.kinematics, self.device, candidates, seed)
+        self.fresh_dropped = fresh.dropped
+        if not len(fresh):
+            reasons = "; ".join(f"{count} {why}" for why, count in fresh.dropped.items())
+            raise UserError(f"none of {candidates} candidate poses can be read by the instrument ({reasons}); check its placement in the spec")
+        fixed = ps.fixed_readings(spec, self.kinematics)  # first: never exchanged, never written as a pose
+        self.existing = sum(len(c) for c in (fixed, existing) if c is not None)
+        self.candidates = ps.Candidates.joined([fixed, existing, fresh])
+        self.information = ps.information(spec, self.kinematics, self.device, self.candidates)
+        self.weight = self.information.prediction_weight()
+        held = ps.candidate_poses(spec, self.kinematics, self.device, HELD_OUT, seed + 1)
+        self.held_out = held.plan(range(len(held)))
+        self.effects = EffectSet(tuple(from_spec(e) for e in spec.effects))
+        self.seed = seed
+
+    @property
+    def pool(self) -> int:
+        """Candidates a plan may add (the existing poses are not among them)."""
+        return len(self.candidates) - self.existing
+
+    def planned(self, count: int, criterion: str | None = None) -> ps.Selection:
+        """``count`` poses chosen by ``criterion`` (D or I; default the study's) after the existing ones."""
+        return ps.select(self.information.blocks, count, self.existing, criterion or self.criterion, self.weight)
+
+    def random(self, count: int, robot: int) -> np.ndarray:
+        """Robot ``robot``'s random design: the existing poses and ``count`` candidates drawn at random."""
+        rng = np.random.default_rng([self.seed, robot, count, 7])
+        return ps.random_rows(len(self.candidates), count, self.existing, rng)
+
+    def linearised(self, rows) -> float:
+        """sqrt(trace(W M^-1)), mm: the noise's share of the held-out accuracy (inf where M is singular)."""
+        covariance = ps.Selection(np.asarray(rows), ps.design_information(self.information.blocks, rows), self.criterion).covariance()
+        return float(np.sqrt(np.trace(self.weight @ covariance))) if np.isfinite(covariance).all() else float("inf")
+
+    def accuracy(self, rows, seed: np.random.SeedSequence) -> float:
+        """Held-out accuracy (mm; rad for angles-only instruments; module doc) of the robot of ``seed`` calibrated at the poses ``rows``; NaN where
+        the design has too few readings to identify the model."""
+        plans = {"calibration": self.candidates.plan(rows), "validation": self.held_out}
+        campaign = self.simulator.run(seed, plans, exact=("validation",))
+        try:
+            result = identify_simulated(self.spec, self.kinematics, self.device, campaign.calibration)
+        except UserError:
+            return float("nan")
+        truth = self.device.prepare(campaign.validation)
+        problem = build_problem(self.kinematics, self.device, truth, self.effects)
+        r, _ = problem.evaluate(result.theta)
+        residuals = problem.residuals
+        length = np.array([k == self.information.metric for k in residuals.kind]) & (residuals.sample >= 0)
+        error = (r * residuals.sigma)[length]
+        samples = np.unique(residuals.sample[length])
+        return float(np.sqrt(np.sum(error**2) / len(samples)))
+
+
+@dataclass(frozen=True)
+class AccuracyCurve:
+    """Held-out accuracy (mm) against the number of poses, planned and random, robot by robot."""
+
+    counts: np.ndarray  # (k,) poses added
+    planned: dict[str, np.ndarray]  # criterion (D, I) -> (runs, k)
+    random: dict[int, np.ndarray]  # factor f -> (runs, k): f x count random poses (NaN where the pool is too small)
+    linearised: dict[str, np.ndarray]  # criterion -> (k,) sqrt(trace W M^-1) of the planned designs, mm
+
+    def values(self) -> dict:
+        """Plain values (JSON, report/plan_plots.accuracy_plot): the counts and each design's mean over the robots."""
+        mean = lambda a: [float(v) if np.isfinite(v) else None for v in a.mean(axis=0)]  # noqa: E731
+        return {"counts": self.counts.tolist(), "planned": {c: mean(a) for c, a in self.planned.items()},
+                "random": {str(f): mean(a) for f, a in self.random.items()},
+                "linearised": {c: a.tolist() for c, a in self.linearised.items()}}
+
+
+def accuracy_curve(study: PlanStudy, counts, runs: int, factors=(1,), criteria=("D",), progress: Callable[[int, int], None] | None = None) -> AccuracyCurve:
+    """Planned designs of each count (by each criterion) and random ones of ``factors`` x count poses, scored on
+    ``runs`` robots (the same robots for every design): arrays for a plot of accuracy against the number of
+    poses. The mean over the robots (axis 0) is the figure; NaN marks a design too small to identify."""
+    counts = np.asarray(counts, dtype=int)
+    seeds = robot_seeds(study.seed, runs)
+    total, done = len(counts) * (len(criteria) + len(factors)), 0
+    planned = {c: np.full((runs, len(counts)), np.nan) for c in criteria}
+    random = {f: np.full((runs, len(counts)), np.nan) for f in factors}
+    linearised = {c: np.zeros(len(counts)) for c in criteria}
+    for j, count in enumerate(counts):
+        for criterion in criteria:
+            rows = study.planned(int(count), criterion).rows
+            linearised[criterion][j] = study.linearised(rows)
+            planned[criterion][:, j] = [study.accuracy(rows, seed) for seed in seeds]
+            done += 1
+            if progress is not None:
+                progress(done, total)
+        for f in factors:
+            if f * count <= study.pool:
+                random[f][:, j] = [study.accuracy(study.random(int(f * count), r), seed) for r, seed in enumerate(seeds)]
+            done += 1
+            if progress is not None:
+                progress(done, total)
+    return AccuracyCurve(counts, planned, random, linearised)

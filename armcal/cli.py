@@ -210,13 +210,17 @@ def montecarlo(
     out: Annotated[Path | None, typer.Option("--out", help="Output folder (default: out/<spec stem>/montecarlo/ beside the spec).", metavar="DIR")] = None,
     workers: WorkersOption = None,
     scheduler: SchedulerOption = None,
+    poses: Annotated[
+        str | None,
+        typer.Option("--poses", help="Also predict held-out accuracy for these numbers of calibration poses, planned vs random (e.g. 15,30,60).", metavar="N,N,..."),
+    ] = None,
 ) -> None:
     """Stone's Monte-Carlo study: N simulated robots identified, then design-model vs calibrated control on the grid task."""
-    from armcal.montecarlo import montecarlo as run_study
+    from armcal.montecarlo import montecarlo as run_study, pose_counts
     from armcal.summary import study_summary
 
-    with _progress_bar("robots") as show:
-        study = run_study(spec, runs, sweep or [], seed, out, workers, scheduler, show)
+    with _progress_bar("robots, then designs") as show:
+        study = run_study(spec, runs, sweep or [], seed, out, workers, scheduler, show, pose_counts(poses))
     typer.echo(study_summary(study))
 
 

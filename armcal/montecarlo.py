@@ -2,7 +2,10 @@
 
 Writes montecarlo.json (statistics of the 34 grid indices at every point, the
 trends of a sweep), montecarlo.csv (every robot's indices) and SVG plots, each
-file whole or not at all, once everything is computed.
+file whole or not at all, once everything is computed. With ``poses`` it also
+predicts the held-out accuracy against the number of calibration poses, planned
+(D-optimal, ``armcal plan``) and random (N and 3N), on the study's robots
+(evaluate/plan_accuracy.py), and plots it.
 """
 
 from __future__ import annotations
@@ -24,17 +27,20 @@ from armcal.errors import UserError
 from armcal.fileio import output_folder
 from armcal.evaluate.grid import ORIENTATION, grid_indices, grid_placement, index_kind, unobserved_orientation
 from armcal.evaluate.montecarlo import ChunkResult, check_points, chunks, run_chunk
+from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve, accuracy_label
 from armcal.evaluate.study_statistics import index_statistics, trend
 from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, variant
 from armcal.parallel import default_workers, run_tasks
+from armcal.planner import DEFAULT_CANDIDATES
 from armcal.procedures.tasks import grid_task
 from armcal.report.render import write_files
+from armcal.report.plan_plots import PLAN_CURVE
 from armcal.report.study_plots import SPREAD, TREND, study_plots
 from armcal.spec import load_spec
 from armcal.units import from_internal
 
 INDEX_NAMES = list(grid_indices(grid_task(), grid_task()))
-STUDY_PLOTS = {SPREAD, TREND}
+STUDY_PLOTS = {SPREAD, TREND, PLAN_CURVE}
 
 
 @dataclass(frozen=True)
@@ -53,8 +59,11 @@ def montecarlo(
     workers: int | None = None,
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
+    poses: list[int] = (),
 ) -> Study:
-    """Run ``runs`` simulated robots at every point of the (at most one) sweep; write the study's files."""
+    """Run ``runs`` simulated robots at every point of the (at most one) sweep; write the study's files.
+
+    ``poses``: numbers of calibration poses at which to compare planned and random poses' held-out accuracy."""
     if runs < 2:
         raise UserError(f"--runs {runs}: a study needs at least 2 robots for a standard deviation")
     if len(sweeps) > 1:
@@ -78,6 +87,7 @@ def montecarlo(
             progress(done[0], total)
 
     results = run_tasks(run_chunk, chunks(points, folder, runs, seed, size), scheduler, workers, robots_done)
+    accuracy = _accuracy_vs_poses(spec, folder, list(poses), runs, seed, progress) if poses else None
     elapsed = time.perf_counter() - started
     design, calibrated, converged = _collect(results, len(points), runs)
     statistics = [index_statistics(INDEX_NAMES, design[k], calibrated[k], spec.robot.units) for k in range(len(points))]
@@ -98,6 +108,7 @@ def montecarlo(
             for k in range(len(points))
         ],
         "trend": trend(sweep, statistics) if sweep else None,
+        "accuracy_vs_poses": accuracy,
     }
     files = {
         "montecarlo.json": json.dumps(summary, indent=2, allow_nan=False) + "\n",
@@ -108,6 +119,38 @@ def montecarlo(
     for stale in STUDY_PLOTS - set(files):  # a plot of an earlier study in this folder would mislead
         (out_dir / stale).unlink(missing_ok=True)
     return Study(summary, out_dir, written)
+
+
+def pose_counts(text: str | None) -> list[int]:
+    """``--poses 15,30,60`` as numbers; a located message for anything else."""
+    if not text:
+        return []
+    try:
+        counts = [int(part) for part in text.split(",")]
+    except ValueError:
+        raise UserError(f"--poses {text}: give whole numbers of poses separated by commas, e.g. 15,30,60") from None
+    if min(counts) < 1:
+        raise UserError(f"--poses {text}: numbers of poses are positive")
+    return sorted(set(counts))
+
+
+def _accuracy_vs_poses(spec, folder: Path, counts: list[int], runs: int, seed: int, progress) -> dict:
+    """Held-out accuracy of N planned vs N and 3N random calibration poses, mean over the study's robots."""
+    study = PlanStudy(spec, folder, max(DEFAULT_CANDIDATES, 3 * max(counts)), seed)
+    curve = accuracy_curve(study, counts, runs, factors=(1, 3), progress=progress)
+    definition, unit, scale = accuracy_label(spec, study)
+    values = curve.values()
+    scaled = lambda means: [None if v is None else v * scale for v in means]  # noqa: E731
+    return {
+        "definition": definition,
+        "unit": unit,
+        "robots": runs,
+        "candidates": study.pool,
+        "criterion": "D",
+        "counts": values["counts"],
+        "planned": {c: scaled(m) for c, m in values["planned"].items()},
+        "random": {f: scaled(m) for f, m in values["random"].items()},
+    }
 
 
 def _collect(results: list[ChunkResult], count: int, runs: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

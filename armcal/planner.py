@@ -21,7 +21,7 @@ from armcal import __version__
 from armcal.dataio.reader import read_pose_file
 from armcal.errors import UserError
 from armcal.evaluate.montecarlo import robot_seeds
-from armcal.evaluate.plan_accuracy import HELD_OUT, PlanStudy
+from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_label
 from armcal.fileio import refuse_replacing
 from armcal.procedures import pose_selection as ps
 from armcal.report.render import write_files
@@ -151,8 +151,7 @@ def _summary(loaded, study: PlanStudy, selection, covariance, readings, accuracy
     std = np.sqrt(np.diag(covariance))
     parameters = [{"name": name, "unit": _unit(spec, kind), "std": from_internal(s, kind, _unit(spec, kind)) if kind in ("length", "angle") else float(s)}
                   for name, kind, s in zip(info.base, info.kinds, std)]
-    unit, scale = ("mm", 1.0) if info.metric == "length" else ("arcsec", from_internal(1.0, "angle", "arcsec"))
-    metric = {"ballbar": "bar-length error", "theodolite": "angle error (azimuth, elevation)"}.get(spec.device.type, "3D position error of the targets (instrument frame)")
+    definition, unit, scale = accuracy_label(spec, study)
     summary = {
         "armcal_version": __version__,
         "spec": {"path": str(loaded.path), "sha256": loaded.sha256},
@@ -167,8 +166,7 @@ def _summary(loaded, study: PlanStudy, selection, covariance, readings, accuracy
     }
     if accuracy is not None:
         summary["held_out_accuracy"] = {
-            "definition": f"RMS {metric} at {HELD_OUT} independent held-out poses: the model calibrated from the plan's "
-                          "noisy readings against the true robot's noise-free readings",
+            "definition": definition,
             "unit": unit,
             "robots": len(accuracy["planned"]),
             "planned": _stats(scale * accuracy["planned"]),

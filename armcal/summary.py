@@ -222,8 +222,20 @@ def study_summary(study) -> str:
         )
     if s.get("unobserved"):
         lines.append(f"  absolute orientation indices (vertices 1/4/5/8), calibrated: {s['unobserved']['reason']}")
+    if s.get("accuracy_vs_poses"):
+        lines += _accuracy_lines(s["accuracy_vs_poses"])
     lines.append(f"  wrote {', '.join(p.name for p in study.files)} in {study.out_dir}")
     return "\n".join(lines)
+
+
+def _accuracy_lines(curve: dict) -> list[str]:
+    """The predicted held-out accuracy of N planned poses beside N and 3N random ones."""
+    shown = lambda v: "not identified" if v is None else f"{v:.4g}"  # noqa: E731
+    lines = [f"  held-out accuracy ({curve['unit']}, mean of {curve['robots']} robots): {curve['definition']}",
+             f"  {'poses N':>10s}  {'planned (D)':>14s}  {'random N':>14s}  {'random 3N':>14s}"]
+    for k, count in enumerate(curve["counts"]):
+        lines.append(f"  {count:>10d}  {shown(curve['planned']['D'][k]):>14s}  {shown(curve['random']['1'][k]):>14s}  {shown(curve['random']['3'][k]):>14s}")
+    return lines
 
 
 def counted(count: int, noun: str) -> str:

@@ -92,3 +92,32 @@ def test_a_robot_that_reaches_no_grid_is_told_so(scara, tmp_path):
 )
 def test_which_devices_observe_the_tools_orientation(spec, observed):
     assert (unobserved_orientation(load_spec(spec).spec) is None) is observed
+
+
+def test_the_study_predicts_held_out_accuracy_against_the_number_of_poses(tmp_path):
+    """--poses: N planned (D-optimal) and N, 3N random calibration poses scored on the study's robots; the figure of
+    one design recomputed robot by robot with the plan study (evaluate/plan_accuracy.py) from the same seeds; three
+    times the random poses leave a smaller error (noise averaged over 3x the readings); the plot is written."""
+    from armcal.evaluate.montecarlo import robot_seeds
+    from armcal.evaluate.plan_accuracy import PlanStudy
+    from armcal.planner import DEFAULT_CANDIDATES
+
+    study = montecarlo(UR10, 3, out_dir=tmp_path / "a", workers=1, seed=5, poses=[15])
+    curve = study.summary["accuracy_vs_poses"]
+    assert curve["unit"] == "mm" and curve["counts"] == [15] and "held-out" in curve["definition"]
+    planned, random_n, random_3n = curve["planned"]["D"][0], curve["random"]["1"][0], curve["random"]["3"][0]
+    assert random_3n < random_n
+    plan = PlanStudy(load_spec(UR10).spec, UR10.parent.resolve(), DEFAULT_CANDIDATES, 5)
+    rows = plan.planned(15).rows
+    again = np.mean([plan.accuracy(rows, seed) for seed in robot_seeds(5, 3)])
+    assert planned == pytest.approx(again, rel=1e-9)
+    assert (tmp_path / "a" / "plan_accuracy.svg").read_text().lstrip().startswith("<?xml")
+
+
+def test_a_poses_list_that_is_not_numbers_is_a_user_error():
+    from armcal.montecarlo import pose_counts
+
+    assert pose_counts("30,15,30") == [15, 30]
+    for bad in ("15;30", "0,15", "a"):
+        with pytest.raises(UserError, match="--poses"):
+            pose_counts(bad)

@@ -40,6 +40,7 @@ from armcal.identify.problem import build_problem
 from armcal.procedures import pose_selection as ps
 from armcal.simulate.campaign import CampaignSimulator
 from armcal.spec.model import Spec
+from armcal.units import from_internal
 
 HELD_OUT = 300  # candidate draws for the held-out poses
 
@@ -148,3 +149,14 @@ def accuracy_curve(study: PlanStudy, counts, runs: int, factors=(1,), criteria=(
             if progress is not None:
                 progress(done, total)
     return AccuracyCurve(counts, planned, random, linearised)
+
+
+def accuracy_label(spec: Spec, study: PlanStudy) -> tuple[str, str, float]:
+    """What a held-out accuracy figure is, its unit, and the factor from the study's values (mm, rad) to that unit."""
+    metric = {"ballbar": "bar-length error", "theodolite": "angle error (azimuth, elevation)"}.get(
+        spec.device.type, "3D position error of the targets (instrument frame)"
+    )
+    unit, scale = ("mm", 1.0) if study.information.metric == "length" else ("arcsec", from_internal(1.0, "angle", "arcsec"))
+    definition = (f"RMS {metric} at {HELD_OUT} independent held-out poses: the model calibrated from the plan's "
+                  "noisy readings against the true robot's noise-free readings")
+    return definition, unit, scale

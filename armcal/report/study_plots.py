@@ -11,6 +11,7 @@ import numpy as np
 from matplotlib.ticker import NullFormatter
 
 from armcal.evaluate.grid import RADIAL, index_kind
+from armcal.report.plan_plots import PLAN_CURVE, accuracy_plot
 from armcal.report.plots import STYLE, plt, svg
 
 
@@ -23,6 +24,9 @@ def study_plots(summary: dict) -> dict[str, str]:
     plots = {SPREAD: spread(summary)}
     if summary["trend"] is not None and summary["trend"]["radial_slope"] is not None:
         plots[TREND] = radial_trend(summary)
+    curve = summary.get("accuracy_vs_poses")
+    if curve is not None:
+        plots[PLAN_CURVE] = accuracy_plot(curve, curve["unit"], f"held-out accuracy, mean of {curve['robots']} simulated robots")
     return plots
 
 

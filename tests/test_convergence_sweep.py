@@ -1,5 +1,8 @@
 """Every good fit converges: 100 simulated campaigns with one hidden effect each (issue 13).
 
+The full sweep (25 campaigns per robot and device) is a slow study (`pytest -m slow`);
+the default run fits the first 6 of each, the same campaigns with the same seeds.
+
 The campaigns come from tests/independent_sim.py, a simulator written from the docs
 alone (numpy, no armcal code): a plain-dh PUMA 560 (axes 2-3 parallel) and a UR-like
 arm (axes 2-4 parallel), each with a laser tracker and with a ball-bar; the true
@@ -9,6 +12,8 @@ Oracle for the fit: scipy's least_squares on the same free set from the same sta
 reaches the same cost (to 1e-6 relative); held parameters never move; the
 calibrated.yaml written from the fit predicts every reading as the fit does.
 """
+
+import math
 
 import numpy as np
 import pytest
@@ -25,7 +30,8 @@ from armcal.results.calibrated import calibrated_text
 from armcal.results.campaign import campaign
 from armcal.spec import load_spec
 
-PER_PAIR = 25
+PER_PAIR = 25  # campaigns per robot and device in the full study
+MISSED, MISORDERED = 2, 5  # of PER_PAIR campaigns: hidden effect not found; found without its harmonic's order
 EFFECTS = {"tracker": ("gear_harmonic", "encoder_scale", "joint_compliance"), "ballbar": ("gear_harmonic",)}
 
 
@@ -102,10 +108,11 @@ def campaign_outcome(folder, robot: str, device: str, k: int) -> dict:
     }
 
 
+@pytest.mark.parametrize("count", [6, pytest.param(PER_PAIR, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("robot", ["puma560", "ur_like"])
 @pytest.mark.parametrize("device", ["tracker", "ballbar"])
-def test_every_campaign_converges_to_scipys_minimum(tmp_path, robot, device):
-    outcomes = [campaign_outcome(tmp_path / f"c{k}", robot, device, k) for k in range(PER_PAIR)]
+def test_every_campaign_converges_to_scipys_minimum(tmp_path, robot, device, count):
+    outcomes = [campaign_outcome(tmp_path / f"c{k}", robot, device, k) for k in range(count)]
     failed = [(k, o["reason"]) for k, o in enumerate(outcomes) if not o["converged"]]
     assert not failed
     for k, o in enumerate(outcomes):
@@ -113,10 +120,10 @@ def test_every_campaign_converges_to_scipys_minimum(tmp_path, robot, device):
         assert not o["held_moved"], k
         assert o["round_trip"] < 1e-6, (k, o)  # calibrated.yaml predicts every reading as the fit does
     hits, exact = sum(o["found"] for o in outcomes), sum(o["exact"] for o in outcomes)
-    assert hits >= PER_PAIR - 2, [(k, o["effect"]) for k, o in enumerate(outcomes) if not o["found"]]
-    assert exact >= PER_PAIR - 5  # on ball-bar shells harmonics of one joint's neighbouring orders look alike
+    assert hits >= count - math.ceil(MISSED * count / PER_PAIR), [(k, o["effect"]) for k, o in enumerate(outcomes) if not o["found"]]
+    assert exact >= count - math.ceil(MISORDERED * count / PER_PAIR)  # on ball-bar shells harmonics of one joint's neighbouring orders look alike
     print(
-        f"{robot}/{device}: {PER_PAIR - len(failed)}/{PER_PAIR} converged, effect on its joint found {hits}/{PER_PAIR}"
+        f"{robot}/{device}: {count - len(failed)}/{count} converged, effect on its joint found {hits}/{count}"
         f" ({exact} with the harmonic's order), iterations "
         f"median {np.median([o['iterations'] for o in outcomes]):.0f} max {max(o['iterations'] for o in outcomes)}, "
         f"condition median {np.median([o['condition'] for o in outcomes]):.3g} max {max(o['condition'] for o in outcomes):.3g}"

@@ -35,12 +35,19 @@ def _spec(tmp_path, data: str) -> None:
     (tmp_path / "spec.yaml").write_text(text)
 
 
-def test_fit_series_c_validate_on_series_b(tmp_path):
+@pytest.fixture(scope="module")
+def series_c_on_b(tmp_path_factory):
+    """One `armcal run` calibrating on Series C, B held out (its folder and results): the tests below share it."""
+    folder = tmp_path_factory.mktemp("ur10_c_b")
+    _import(folder, "C", "C.csv")
+    _import(folder, "B", "B.csv")
+    _spec(folder, "data: {calibration: C.csv, validation: B.csv}\n")
+    return folder, run(folder / "spec.yaml", folder / "out").results
+
+
+def test_fit_series_c_validate_on_series_b(series_c_on_b):
     """Same tracker set-up for B and C: the calibrated model predicts B several times better."""
-    _import(tmp_path, "C", "C.csv")
-    _import(tmp_path, "B", "B.csv")
-    _spec(tmp_path, "data: {calibration: C.csv, validation: B.csv}\n")
-    results = run(tmp_path / "spec.yaml", tmp_path / "out").results
+    tmp_path, results = series_c_on_b
     assert results.status == "converged" and results.solver.iterations < 20
     # Hayati's beta on the three parallel axes: a well-conditioned problem, no d sliding along the axes
     assert results.identifiability.condition_number < 1e3
@@ -140,12 +147,10 @@ def test_validate_on_series_d_with_the_moved_tracker(tmp_path):
     assert validation.before.rms < 1.5 and validation.after.rms < validation.before.rms  # registered, not metres off
 
 
-def test_the_calibrated_spec_reproduces_the_fit(tmp_path):
+def test_the_calibrated_spec_reproduces_the_fit(series_c_on_b):
     """calibrated.yaml carries every value the fitted model uses, the tracker's registration included."""
-    _import(tmp_path, "C", "C.csv")
-    _import(tmp_path, "B", "B.csv")
-    _spec(tmp_path, "data: {calibration: C.csv, validation: B.csv}\n")
-    first, _ = round_trip(tmp_path / "spec.yaml", tmp_path / "out")
+    tmp_path, results = series_c_on_b
+    first, _ = round_trip(tmp_path / "spec.yaml", tmp_path / "out", first=results)
     held = {f.name: f.reason for f in first.identifiability.fixed}
     assert held["shoulder_pan.theta"] == "redundant with robot_base.rz"  # the tracker's pose carries joint 1's zero
     calibrated = load_spec(tmp_path / "out" / "calibrated.yaml").spec

@@ -148,6 +148,7 @@ def run_summary(outcome) -> str:
     for flat in r.identifiability.flat_directions:
         moved = ", ".join(name for name, _ in flat.parameters)
         lines.append(f"  flat direction at the solution: singular value {flat.ratio:.2g} of the largest, along {moved}")
+    lines += held_out_lines(r)
     if r.identifiability.unidentifiable:
         lines.append(f"  not identifiable from these data: {', '.join(r.identifiability.unidentifiable)}")
     lines += task_lines(r)
@@ -307,6 +308,26 @@ def simulation_summary(loaded: LoadedSpec, campaign) -> str:
     if reasons:
         lines.append("  look at: " + "; ".join(f"{why} -> {keys}" for why, keys in reasons.items() if keys))
     return "\n".join(lines)
+
+
+def held_out_lines(r) -> list[str]:
+    """Why the held-out data are predicted worse than the noise, when they are (evaluate/held_out_check.py)."""
+    check = r.held_out_check
+    if check is None or check.verdict == "consistent":
+        return []
+    head = (f"  held-out check: the held-out residuals are {check.rms_over_noise:.3g} noise sigmas RMS; noise and the parameters' "
+            f"uncertainty predict {check.expected_rms_over_noise:.3g} (chi2 {check.chi2:.4g} on {check.dof}, p = {check.p_value:.2g})")
+    if check.verdict == "parameter_uncertainty":
+        flat = [name for f in r.identifiability.flat_directions for name, _ in f.parameters]
+        along = f" (the flat direction: {', '.join(dict.fromkeys(flat))})" if flat else ""
+        return [head, f"    {check.parameter_share:.0%} of it is the parameters' own uncertainty: the calibration poses leave them poorly "
+                      f"determined{along}. Add poses that move them (armcal plan SPEC --extend CALIBRATION.csv), or hold values "
+                      "known from a measurement (vary: false) [procedure, robot.targets, device]"]
+    causes = ["the instrument moved between the two data sets (data.instrument_moved: true)"]
+    if check.held_out_only:
+        causes.append(f"a value only the held-out data use, held at its spec value: {', '.join(check.held_out_only)} (its spec key)")
+    causes.append("an effect the calibration poses cannot see (held-out poses outside the calibrated region: procedure, validation)")
+    return [head, "    more than the calibrated model explains; likely causes: " + "; ".join(causes)]
 
 
 def cause_lines(r, spec_path: str) -> list[str]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from armcal.diagnose.causes import likely_causes
+from armcal.evaluate.held_out_check import held_out_check
 from armcal.diagnose.loop import Diagnosis
 from armcal.diagnose.stage import Calibration
 from armcal.evaluate.acceptance import acceptance_block
@@ -102,6 +103,7 @@ def summarize(
         correlations=[list(c) for c in uncertainty.correlations],
         campaign=measured,
         acceptance=acceptance_block(spec.acceptance, calibration.validation, identified.theta, device_type),
+        held_out_check=held_out_check(problem, calibration.validation, result, identified.theta) if identified.features is None else None,
     )
 
 

@@ -226,6 +226,19 @@ class NoiseCheck(_Frozen):
     causes: list[Cause] = []  # ranked, when the residuals are too large
 
 
+class HeldOutCheck(_Frozen):
+    """Held-out residuals against noise plus the parameters' propagated uncertainty (evaluate/held_out_check.py)."""
+
+    chi2: float
+    dof: int
+    p_value: float
+    rms_over_noise: float  # held-out RMS in noise sigmas
+    expected_rms_over_noise: float  # what noise and the parameters' uncertainty predict
+    parameter_share: float  # of the expected held-out variance, the parameters' uncertainty's share
+    held_out_only: list[str]  # parameters only the held-out readings use (held at their spec values)
+    verdict: Literal["consistent", "parameter_uncertainty", "beyond_prediction"]
+
+
 class Solver(_Frozen):
     method: str
     iterations: int
@@ -336,3 +349,4 @@ class Results(_Frozen):
     simulated: SimulatedData | None = None  # null: not recorded (results of an older armcal)
     history: list[HistoryEntry] = []  # earlier calibrations given with --history
     warnings: list[str] = []  # what the user should know about the inputs (e.g. a simulated-looking t column in real data)
+    held_out_check: HeldOutCheck | None = None  # null: no held-out data

@@ -1,0 +1,76 @@
+"""Do the held-out data agree with the calibrated model? And when they do not, why.
+
+A calibration can match its own data to the noise and still predict held-out
+readings poorly. Two reasons can be told apart with what the run has:
+
+- the parameters' own uncertainty: the calibration poses leave a direction of the
+  parameters poorly determined (a flat direction of the base Jacobian), so the
+  prediction at held-out poses carries the covariance C of the base parameters,
+  J_v C J_v' (the linearised propagation behind Stone's 7.4 spreads); the
+  expected variance of each weighted held-out residual is s^2 + (J_v C J_v')_ii,
+  s^2 the noise's (1, or chi2/dof where the noise check scaled C);
+- something the calibration data do not contain: the held-out residuals exceed even
+  that expectation (a chi2 test on the n held-out readings at NOISE_CHECK_LEVEL):
+  the instrument moved, a parameter only the held-out data use is held at a wrong
+  value (an extension rod's length, another target), or an effect the calibration
+  poses cannot see.
+
+The first is said when the held-out RMS is more than twice the noise and most of
+it is the parameters' uncertainty: add poses that move the flat direction
+(`armcal plan --extend`), or hold values known from a measurement.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import chdtrc
+
+from armcal.identify.fit import FitResult
+from armcal.identify.problem import Problem
+from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
+
+NOISE_MULTIPLE = 2.0  # held-out RMS over the noise's above which a poor prediction is explained
+PARAMETER_SHARE = 0.5  # share of the expected held-out variance from the parameters' uncertainty that names it
+
+
+def held_out_check(calibration: Problem, validation: Problem | None, result: FitResult, theta: np.ndarray) -> dict | None:
+    """The held-out chi2 against noise plus propagated parameter uncertainty, and a verdict (None without held-out data)."""
+    if validation is None:
+        return None
+    r, J = validation.evaluate(theta)
+    if not len(r):
+        return None
+    uncertainty = result.uncertainty
+    noise = uncertainty.chi2 / uncertainty.dof if uncertainty.scaled and uncertainty.dof > 0 else 1.0
+    A = J[:, result.base]
+    propagated = np.einsum("ij,jk,ik->i", A, uncertainty.covariance, A)
+    expected = noise + propagated
+    chi2 = float(np.sum(r**2 / expected))
+    dof = len(r)
+    p_value = float(chdtrc(dof, chi2))
+    share = float(propagated.sum() / expected.sum())
+    multiple = float(np.sqrt(np.mean(r**2) / noise))
+    only_held_out = _only_held_out(calibration, validation, J, theta)
+    if p_value < NOISE_CHECK_LEVEL:
+        verdict = "beyond_prediction"
+    elif multiple > NOISE_MULTIPLE and share > PARAMETER_SHARE:
+        verdict = "parameter_uncertainty"
+    else:
+        verdict = "consistent"
+    return {
+        "chi2": chi2,
+        "dof": dof,
+        "p_value": p_value,
+        "rms_over_noise": multiple,
+        "expected_rms_over_noise": float(np.sqrt(np.mean(expected) / noise)),
+        "parameter_share": share,
+        "held_out_only": only_held_out,
+        "verdict": verdict,
+    }
+
+
+def _only_held_out(calibration: Problem, validation: Problem, J: np.ndarray, theta: np.ndarray) -> list[str]:
+    """Parameters the held-out readings depend on and the calibration readings do not (held at their spec value)."""
+    _, Jc = calibration.evaluate(theta)
+    used = np.any(J != 0, axis=0) & ~np.any(Jc != 0, axis=0)
+    return [calibration.parameters.names[i] for i in np.flatnonzero(used)]

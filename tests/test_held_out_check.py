@@ -1,0 +1,62 @@
+"""A calibration that fits its own data but predicts held-out readings poorly says why (evaluate/held_out_check.py).
+
+Oracles: simulated campaigns whose truth is known (armcal's simulator draws the robot, the model under test only
+fits it): with a complete model the held-out residuals are noise plus the parameters' propagated uncertainty
+(consistent), and the held-out RMS in noise sigmas is the validation RMS over the declared sigma; the same data
+with the held-out readings shifted by 1.6 sigma (as if the tracker had moved) exceed that prediction; a ball-bar
+fixture whose calibration poses leave a flat direction predicts the held-out error it then shows.
+"""
+
+import csv
+
+import pytest
+from conftest import armcal_cli, copy_example
+
+from armcal.pipeline import run
+from armcal.summary import held_out_lines
+
+NOISE_MM = 0.025  # examples/hidden_harmonic: device.noise 0.0025 cm
+
+
+def _shift_x(path, by_cm: float) -> None:
+    rows = list(csv.DictReader(path.open()))
+    for row in rows:
+        row["x"] = f"{float(row['x']) + by_cm:.10g}"
+    with path.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def test_a_complete_model_is_consistent_and_a_moved_instrument_is_not(tmp_path):
+    copy_example("hidden_harmonic", tmp_path)
+    results = run(tmp_path / "spec.yaml", tmp_path / "out", pdf=False).results
+    check = results.held_out_check
+    assert check.verdict == "consistent" and check.p_value > 0.01
+    assert check.rms_over_noise == pytest.approx(results.residuals.validation.after.rms / NOISE_MM, rel=1e-6)
+    assert check.parameter_share < 0.5 and not held_out_lines(results)
+
+    _shift_x(tmp_path / "validation.csv", 0.004)  # 0.04 mm = 1.6 sigma on every x
+    moved = run(tmp_path / "spec.yaml", tmp_path / "out2", pdf=False).results
+    assert moved.held_out_check.verdict == "beyond_prediction" and moved.held_out_check.p_value < 1e-6
+    assert moved.residuals.calibration.after.rms == pytest.approx(results.residuals.calibration.after.rms, rel=1e-9)
+    text = "\n".join(held_out_lines(moved))
+    assert "more than the calibrated model explains" in text and "data.instrument_moved" in text
+
+
+def test_a_flat_direction_explains_a_poor_held_out_prediction(tmp_path):
+    """`armcal new`'s ball-bar fixture for the KR 6 (pivots and spheres free, pivots in one plane): the calibration
+    matches its noise, the held-out shells are about 6 sigmas off, and that is what the parameters' uncertainty
+    along the flat direction predicts."""
+    spec = tmp_path / "spec.yaml"
+    for args in (("new", "--robot", "kuka_kr6_r900_sixx", "--device", "ballbar", "--out", spec), ("simulate", spec)):
+        result = armcal_cli(*args)
+        assert result.returncode == 0, result.stderr
+    results = run(spec, tmp_path / "out", pdf=False).results
+    check = results.held_out_check
+    assert results.noise_check.verdict != "residuals_too_large"
+    assert check.verdict == "parameter_uncertainty" and check.rms_over_noise > 3
+    assert check.expected_rms_over_noise == pytest.approx(check.rms_over_noise, rel=0.5)
+    text = "\n".join(held_out_lines(results))
+    flat = results.identifiability.flat_directions[0].parameters[0][0]
+    assert "the parameters' own uncertainty" in text and flat in text and "armcal plan" in text

@@ -47,11 +47,6 @@ class DeviceModel(ABC):
     parameters: ParameterSet
     spec: object  # the device section of the spec
 
-    @property
-    def identity(self) -> str:
-        """Canonical form of what defines the model's functions."""
-        return f"{self.spec.model_dump_json()}|{getattr(self, 'mode', '')}"
-
     @abstractmethod
     def channels(self, key: Key) -> tuple[Channel, ...]:
         """The readings of one sample of this key."""

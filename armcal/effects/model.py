@@ -144,10 +144,6 @@ class EffectSet:
     def parameters(self) -> ParameterSet:
         return ParameterSet(tuple(p for e in self.effects for p in e.parameters()))
 
-    @property
-    def identity(self) -> str:
-        return repr(self.effects)
-
     def joint_values(self, kinematics: KinematicModel, q, x, p, v: dict):
         """q + the joint-side effects' deviations; ``v`` maps effect parameter names to symbols."""
         n = kinematics.dof

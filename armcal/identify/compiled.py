@@ -1,17 +1,31 @@
 """Compiled measurement functions, cached across runs.
 
 All functions of a problem are generated as C in one file and compiled once by
-the system's C compiler; the shared object is kept under a hash of what defines
-them (the canonical robot and device sections of the spec, the device's mode,
-the keys, and the armcal and CasADi versions), so later runs of the same setup
-load it at once. Without a C compiler CasADi's virtual machine evaluates them.
+the system's C compiler; the shared object is kept under a hash of that C source
+(with the compiler and its flags), so it is keyed on exactly what its machine code
+depends on. Values a user edits often (noise, nominal values, limits, data) are
+inputs of the functions or never enter them, so editing them reuses the library;
+a change of structure (another robot, instrument, key or candidate effect) builds
+another. Without a C compiler CasADi's virtual machine evaluates them.
+
+When the library is not built yet, $ARMCAL_COMPILE says what to do:
+
+- ``now`` (the default for armcal used as a library, and main's behaviour before
+  issue 18): compile at once and load the library; a compile that waits on another
+  builder of the same cache waits for it rather than building the same file twice;
+- ``background`` (the default of the ``armcal`` command): evaluate with CasADi's
+  virtual machine at once (the same numbers to 1e-12) and leave the compile to a
+  detached process (builder.py), so the first run pays no compile and later runs
+  load the library;
+- ``off``: never compile (the virtual machine only).
 
 Loading a library runs its code, so the cache is private: its folder is made 0700,
 each library is written 0700 with the SHA-256 of its bytes beside it
 (``armcal_<digest>.so.sha256``), and a library is loaded only when it, its hash file
 and the folder belong to this user, are writable by no one else and the hash matches.
 A library that fails the check (truncated, garbage, replaced) is rebuilt; a cache
-folder that fails it is not used: that process compiles into a private temporary folder.
+folder that fails it is not used: that process compiles into a private temporary
+folder (``now``) or does not compile (``background``).
 """
 
 from __future__ import annotations
@@ -29,6 +43,11 @@ from pathlib import Path
 import casadi as ca
 
 from armcal import __version__
+from armcal.identify import builder
+
+MODES = ("now", "background", "off")
+LONG = 100_000  # characters of C: more than a second of gcc -O1 (a ball-bar problem's functions: 0.5-1 MB, 3-6 s)
+MESSAGE = "armcal: compiling the measurement functions for this robot and instrument{where} (once; later runs load them)"
 
 
 def cache_dir() -> Path:
@@ -36,34 +55,121 @@ def cache_dir() -> Path:
     return Path(os.environ.get("ARMCAL_CACHE") or Path.home() / ".cache" / "armcal")
 
 
-def compiled(functions: list[ca.Function], identity: str) -> list[ca.Function]:
-    """The same functions, compiled to machine code (or as given when no compiler is available)."""
+def compile_mode() -> str:
+    """$ARMCAL_COMPILE: now (default), background or off (module docstring)."""
+    mode = os.environ.get("ARMCAL_COMPILE") or "now"
+    if mode not in MODES:
+        _say_once(f"armcal: ARMCAL_COMPILE={mode!r} is not one of {', '.join(MODES)}; compiling now")
+        return "now"
+    return mode
+
+
+def compiled(functions: list[ca.Function], identity: str | None = None) -> list[ca.Function]:
+    """The same functions, compiled to machine code, or as given (evaluated by CasADi's virtual machine) when
+    there is no compiler, $ARMCAL_COMPILE is off, or it is background and the library is still being built.
+
+    The library is keyed on the generated C source, or on ``identity`` (a canonical description of what
+    defines the functions) when one is given."""
+    mode = compile_mode()
     compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
-    if compiler is None or not functions:
+    if compiler is None or not functions or mode == "off":
         return functions
-    digest = hashlib.sha256(f"{identity}|armcal {__version__}|casadi {ca.__version__}".encode()).hexdigest()[:32]
-    library = _private_folder() / f"armcal_{digest}.so"
     names = [f"f{i}" for i in range(len(functions))]
-    if not _intact(library):
-        try:
-            _build(functions, names, library, compiler)
-        except (OSError, subprocess.CalledProcessError):
-            return functions
+    source = _source(functions, names)
+    if identity is None:
+        digest = builder.key(source, compiler)
+    else:
+        digest = hashlib.sha256(f"{identity}|armcal {__version__}|casadi {ca.__version__}".encode()).hexdigest()[:32]
+    folder = _private_folder(mode)
+    if folder is None:
+        return functions
+    library = folder / f"armcal_{digest}.so"
+    if builder.intact(library):
+        return _loaded(library, names)
+    if mode == "background":
+        _start_builder(source, library, compiler)
+        return functions
+    try:
+        if len(source) > LONG:
+            _say_once(MESSAGE.format(where=""))
+        with tempfile.TemporaryDirectory(dir=folder) as work:
+            path = Path(work) / builder.SOURCE
+            path.write_text(source)
+            builder.build_unless_intact(path, library, compiler)
+    except (OSError, subprocess.CalledProcessError):
+        return functions
+    return _loaded(library, names)
+
+
+def _loaded(library: Path, names: list[str]) -> list[ca.Function]:
     return [ca.external(name, str(library)) for name in names]
 
 
-def _private_folder() -> Path:
-    """The cache folder, created 0700; a private temporary folder when the cache cannot be trusted."""
+def _source(functions: list[ca.Function], names: list[str]) -> str:
+    """The C source of all functions, each under its name in ``names``; generated once per process for the same
+    functions (a run builds the same problem's functions for every fold and data set: 0.05-0.1 s of codegen each,
+    while their serialized form, the memo's key, takes a fifth of that)."""
+    serialized = hashlib.sha256("\0".join([*names, *(f.serialize() for f in functions)]).encode()).hexdigest()
+    if serialized not in _sources:
+        if len(_sources) >= 16:
+            _sources.pop(next(iter(_sources)))
+        _sources[serialized] = _generated(functions, names)
+    return _sources[serialized]
+
+
+_sources: dict[str, str] = {}
+
+
+def _generated(functions: list[ca.Function], names: list[str]) -> str:
+    generator = ca.CodeGenerator(builder.SOURCE, {"with_header": False})
+    for function, name in zip(functions, names):
+        generator.add(_renamed(function, name))
+    return generator.dump()
+
+
+def _start_builder(source: str, library: Path, compiler: str) -> None:
+    """Leave the build of ``library`` to a detached process (once per library and process); say so once.
+
+    ``sh`` starts the builder in the background and exits at once: the builder is nobody's child in this
+    process (it is not waited for, its CPU time is not this process's), in a session of its own, so
+    neither the end of this process nor Ctrl-C on it stops the build."""
+    if library in _started:
+        return
+    _started.add(library)
+    work = Path(tempfile.mkdtemp(prefix="build-", dir=library.parent))  # 0700
+    (work / builder.SOURCE).write_text(source)
+    package_root = str(Path(__file__).resolve().parents[2])
+    code = "import sys; sys.path.insert(0, sys.argv[1]); from armcal.identify.builder import main; main(sys.argv[2:])"
+    command = [sys.executable, "-I", "-c", code, package_root, str(work), str(library), compiler]
+    try:
+        subprocess.run(
+            ["/bin/sh", "-c", '"$@" </dev/null >/dev/null 2>&1 &', "armcal-builder", *command],
+            check=True, start_new_session=True, stdin=subprocess.DEVNULL,
+        )
+    except (OSError, subprocess.CalledProcessError):
+        shutil.rmtree(work, ignore_errors=True)
+        return
+    if len(source) > LONG:
+        _say_once(MESSAGE.format(where=" in the background"))
+
+
+_started: set[Path] = set()
+
+
+def _private_folder(mode: str = "now") -> Path | None:
+    """The cache folder, created 0700; when the cache cannot be trusted, a private temporary folder (``now``) or
+    None (``background``: evaluate without compiling)."""
     folder = cache_dir()
     try:
         _make_private(folder)
-        problem = _exposure(folder)
+        problem = builder.exposure(folder)
     except OSError as error:
         problem = f"cannot be created ({error.strerror})"
     if problem is None:
         return folder
-    _say_once(f"armcal: not using the compiled-code cache {folder}: it {problem}; compiling into a temporary folder")
-    return _temporary_folder()
+    instead = "compiling into a temporary folder" if mode == "now" else "evaluating without compiled code"
+    _say_once(f"armcal: not using the compiled-code cache {folder}: it {problem}; {instead}")
+    return _temporary_folder() if mode == "now" else None
 
 
 def _make_private(folder: Path) -> None:
@@ -75,53 +181,16 @@ def _make_private(folder: Path) -> None:
             pass
 
 
-def _exposure(path: Path) -> str | None:
-    """Why someone other than this user could have written ``path``, or None when no one could."""
-    info = os.stat(path)
-    if info.st_uid != os.geteuid():
-        return f"belongs to user id {info.st_uid}"
-    if info.st_mode & 0o022:
-        return "is writable by group or others"
-    return None
-
-
-def _intact(library: Path) -> bool:
-    """Whether ``library`` and its hash file are this user's alone and the library's SHA-256 is the recorded one."""
-    record = _hash_file(library)
-    try:
-        if _exposure(library) or _exposure(record) or not library.is_file():
-            return False
-        return record.read_text().strip() == _sha256(library)
-    except (OSError, UnicodeDecodeError):
-        return False
+_exposure, _intact, _hash_file, _sha256 = builder.exposure, builder.intact, builder.hash_file, builder.sha256
 
 
 def _build(functions: list[ca.Function], names: list[str], library: Path, compiler: str) -> None:
-    """Compile the functions into ``library`` and record its hash; each file replaced whole or not at all."""
+    """Compile the functions into ``library`` (under the folder's build lock) and record its hash."""
     with tempfile.TemporaryDirectory(dir=library.parent) as work:
-        generator = ca.CodeGenerator("armcal_functions.c", {"with_header": False})
-        for function, name in zip(functions, names):
-            generator.add(_renamed(function, name))
-        source = generator.generate(work + os.sep)
-        partial = Path(work) / library.name
-        subprocess.run([compiler, "-shared", "-fPIC", "-O1", source, "-o", str(partial)], check=True, capture_output=True)
-        os.chmod(partial, 0o700)
-        record = Path(work) / _hash_file(library).name
-        record.write_text(_sha256(partial) + "\n")
-        os.chmod(record, 0o600)
-        os.replace(partial, library)
-        os.replace(record, _hash_file(library))
-
-
-def _hash_file(library: Path) -> Path:
-    """Where the SHA-256 of ``library`` is recorded."""
-    return library.with_name(library.name + ".sha256")
-
-
-def _sha256(path: Path) -> str:
-    """Hex SHA-256 of a file's bytes."""
-    with path.open("rb") as stream:
-        return hashlib.file_digest(stream, "sha256").hexdigest()
+        source = Path(work) / builder.SOURCE
+        source.write_text(_source(functions, names))
+        with builder.locked(library.parent):
+            builder.build(source, library, compiler)
 
 
 @functools.cache

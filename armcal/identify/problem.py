@@ -7,6 +7,8 @@ evaluated by one mapped call of a compiled function (identify/compiled.py) that
 returns the readings and their exact Jacobian, from automatic differentiation of
 the measurement function (never finite differences); the data are inputs of that
 call, not constants of a graph, and the weighting is done in numpy on its outputs.
+Parameter values and sigmas never enter the function either, so its compiled library
+(keyed on the generated code) serves every edit of noise, nominal values or limits.
 """
 
 from __future__ import annotations
@@ -160,8 +162,7 @@ def build_problem(
     if isinstance(device, TheodoliteModel) and device.spec.scale_bar is not None:
         key_rows[BAR_LENGTH] = np.array([-1])
     canonical = sorted(key_rows, key=str)  # one library serves every data set with the same keys
-    identity = f"{kinematics.identity}|{device.identity}|{effects.identity}|{[str(k) for k in canonical]}"
-    functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, effects, k) for k in canonical], identity)))
+    functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, effects, k) for k in canonical])))
     sizes = (len(kinematics.parameters), len(device.parameters), len(effects.parameters))
     extras = extras_matrix(data.extras, len(data), kinematics.dof)
     blocks = []

@@ -33,7 +33,6 @@ class KinematicModel:
     frames: ca.Function  # (q, p) -> 4 x 4(n+1): F_0 .. F_n side by side
     targets: dict[str, ca.Function]  # (q, p) -> 4x4 base-to-target
     target_links: dict[str, int]  # the link each target rides on
-    identity: str  # canonical form of the spec robot it was compiled from
     masses: tuple[LumpedMass, ...] = ()  # the spec's robot.masses: the maker's mass layout, if declared
 
     @property
@@ -106,7 +105,6 @@ def compile_robot(robot: RobotBase) -> KinematicModel:
         frames=ca.Function("frames", [q, p], [ca.horzcat(*frames)], ["q", "p"], ["F"]),
         targets=targets,
         target_links={name: target.link for name, target in robot.targets.items()},
-        identity=robot.model_dump_json(),
         masses=tuple(LumpedMass(m.link, m.mass, (m.x, m.y, m.z)) for m in robot.masses),
     )
 

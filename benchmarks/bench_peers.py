@@ -203,10 +203,11 @@ def case_puma_tracker() -> Case:
     sys.path.insert(0, str(ROOT / "tests"))
     from independent_sim import write_campaign
 
-    folder = Path(tempfile.mkdtemp(prefix="bench_peers_"))
-    info = write_campaign(folder, "puma560", "tracker", "joint_compliance", seed=7, sigmas=3.0)
-    spec = load_spec(Path(info["spec"])).spec
-    return Case("(2) PUMA 560 tracker (simulated)", spec, *(read_measurements(folder / f"{n}.csv", spec) for n in ("calibration", "validation")))
+    with tempfile.TemporaryDirectory() as folder:
+        info = write_campaign(Path(folder), "puma560", "tracker", "joint_compliance", seed=7, sigmas=3.0)
+        spec = load_spec(Path(info["spec"])).spec
+        data = [read_measurements(Path(folder) / f"{n}.csv", spec) for n in ("calibration", "validation")]
+    return Case("(2) PUMA 560 tracker (simulated)", spec, *data)
 
 
 def case_ballbar() -> Case:

@@ -133,7 +133,8 @@ def pose(v: dict, prefix: str, factor=1.0, angles=("rz", "ry", "rx")) -> np.ndar
 
 
 class NumpyRobot:
-    """Frames F_0..F_n and target poses of a spec robot: DH (Stone 2.9) or Goswami's six-parameter chain (2), (3)."""
+    """Frames F_0..F_n and target poses of a spec robot: DH (Stone 2.9, with Hayati's Rot(y, beta) where the spec has it) or
+    Goswami's six-parameter chain (2), (3)."""
 
     def __init__(self, robot):
         assert robot.convention in ("dh", "six_parameter") and all(j.type == "revolute" for j in robot.joints)
@@ -150,6 +151,7 @@ class NumpyRobot:
                 link = rot_z(v[f"{name}.theta0"] + v[f"{name}.k"] * joints[:, i]) @ six_link(i + 2)
             else:
                 offset = trans(factor * v[f"{name}.a"], 0.0, factor * v[f"{name}.d"]) @ rot_x(v[f"{name}.alpha"])
+                offset = offset @ rot_y(v.get(f"{name}.beta", 0.0))  # Hayati's tilt on a nominally parallel axis
                 link = rot_z(v[f"{name}.theta"] + joints[:, i]) @ offset
             frames.append(frames[-1] @ link)
         return frames

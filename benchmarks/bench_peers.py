@@ -11,6 +11,9 @@ Tools, each fitting the same calibration data from the same start the way its do
 
 - armcal: its compiled residuals and Levenberg-Marquardt on its identifiable base set (geometry only:
   no diagnosis, no added effects; ``armcal run`` would add them).
+- armcal run: the whole loop a user runs on the case's spec and CSVs (fit, residual diagnosis, the effects
+  that hold out; for the UR10 the shipped spec's noise from the data and compliance from UR's masses,
+  positions only): its held-out predictions are the measured readings plus its residuals.csv residuals.
 - scipy LM: the existing baseline (benchmarks/_common.py): numpy models of armcal's, scipy
   least_squares(method="lm") with finite differences, armcal's free set.
 - pybotics: its Modified-DH Robot (the spec's DH converted to MDH), its OptimizationHandler (world frame,
@@ -39,6 +42,7 @@ Run: .venv/bin/python benchmarks/bench_peers.py   (one run, minutes: pybotics' f
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import subprocess
@@ -61,7 +65,9 @@ from armcal.identify.fit import fit
 from armcal.identify.problem import build_problem
 from armcal.identify.start import starting_values
 from armcal.kinematics.compiler import compile_robot
+from armcal.pipeline import run
 from armcal.spec import load_spec
+from armcal.units import from_internal
 
 SERIES = ROOT.parent / "shared" / "data" / "ipa-robot-accuracy"
 PEERS = Path(__file__).resolve().parent / "peers"
@@ -92,6 +98,7 @@ class Case:
     calibration: object
     validation: object
     start_from_data: bool = True
+    spec_text: str | None = None  # the spec as `armcal run` reads it, data: {calibration: calibration.csv, validation: validation.csv}
     rows: list = field(default_factory=list)  # table rows (tool, params, fit s, end-to-end s, rms mm, note)
 
 
@@ -136,6 +143,31 @@ def run_armcal(case: Case) -> dict:
     rms = held_out_rms(_predict(spec, names, theta, case.validation), measured)
     case.rows.append(("scipy LM (FD)", len(result.base), seconds, seconds, rms, f"{calls} residual evaluations"))
     return {"names": names, "start": start, "kinematics": kinematics}
+
+
+def run_armcal_loop(case: Case, folder: Path) -> None:
+    """`armcal run` as a user runs it (fit, residual diagnosis, the effects that hold out): its held-out
+    predictions are the measured readings plus its residuals.csv's residuals after calibration."""
+    if case.spec_text is None:
+        return
+    folder.mkdir()
+    (folder / "spec.yaml").write_text(case.spec_text)
+    for name, data in (("calibration", case.calibration), ("validation", case.validation)):
+        write_measurements(folder / f"{name}.csv", data, case.spec)
+    started = time.perf_counter()
+    results = run(folder / "spec.yaml", folder / "out", pdf=False).results
+    total = time.perf_counter() - started
+    with (folder / "out" / "residuals.csv").open() as handle:
+        rows = [r for r in csv.DictReader(handle) if r["data"] == "validation" and r["channel"] in ("x", "y", "z")]
+    scale = from_internal(1.0, "length", case.spec.robot.units.length)  # the CSV is in the spec's unit
+    predicted: dict[str, dict[str, float]] = {}
+    for r in rows:
+        predicted.setdefault(r["line"], {})[r["channel"]] = (float(r["measured"]) + float(r["residual_after"])) / scale
+    lines = sorted(predicted, key=int)
+    measured = _measured(case.spec, case.validation)
+    rms = held_out_rms(np.array([[predicted[line][c] for c in "xyz"] for line in lines]), measured)
+    added = ", ".join(f"{e.type}" + (f" j{e.joint}" if e.joint else "") for e in results.diagnosis.added_effects) or "none"
+    case.rows.append(("armcal run", results.identifiability.rank, total, total, rms, f"the whole loop (fit s: the whole run); effects added: {added}"))
 
 
 def _peer_input(case: Case, armcal: dict, folder: Path) -> Path:
@@ -184,6 +216,9 @@ def run_peer(tool: str, case: Case, path: Path) -> None:
 # --- cases ---------------------------------------------------------------------------------------
 
 
+LOOP_DATA = "data: {calibration: calibration.csv, validation: validation.csv}\n"
+
+
 def case_ur10() -> Case | str:
     if not SERIES.exists():
         return f"(1) UR10 C -> B: skipped, {SERIES} is absent"
@@ -196,7 +231,9 @@ def case_ur10() -> Case | str:
             path = Path(folder) / f"{series}.csv"
             write_measurements(path, read_ipa(next((SERIES / f"Series_{series}").glob("measurements_*.csv")), "tmac", False), spec)
             data[series] = read_measurements(path, spec)
-    return Case("(1) UR10 real C -> B", spec, data["C"], data["B"])
+    text = (ROOT / "specs" / "ur10.yaml").read_text().replace("orientation: true", "orientation: false")
+    text = text.replace("armcal: 1\n", f"armcal: 1\n{LOOP_DATA}", 1)
+    return Case("(1) UR10 real C -> B", spec, data["C"], data["B"], spec_text=text)
 
 
 def case_puma_tracker() -> Case:
@@ -207,7 +244,8 @@ def case_puma_tracker() -> Case:
         info = write_campaign(Path(folder), "puma560", "tracker", "joint_compliance", seed=7, sigmas=3.0)
         spec = load_spec(Path(info["spec"])).spec
         data = [read_measurements(Path(folder) / f"{n}.csv", spec) for n in ("calibration", "validation")]
-    return Case("(2) PUMA 560 tracker (simulated)", spec, *data)
+        text = Path(info["spec"]).read_text()
+    return Case("(2) PUMA 560 tracker (simulated)", spec, *data, spec_text=text)
 
 
 def case_ballbar() -> Case:
@@ -257,6 +295,7 @@ def main() -> None:
             if isinstance(case, str):
                 continue
             armcal = run_armcal(case)
+            run_armcal_loop(case, Path(folder) / f"loop{len(cases)}")
             if case.spec.device.type == "ballbar":
                 case.rows += [(tool, None, None, None, None, reason) for tool, reason in BALLBAR_REASONS.items()]
                 continue

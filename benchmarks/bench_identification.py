@@ -102,7 +102,7 @@ def case_d() -> list[str]:
     with tempfile.TemporaryDirectory() as folder:
         for series in ("C", "B"):  # as `armcal import-ipa` converts them, read back as a run reads them
             path = Path(folder) / f"{series}.csv"
-            write_measurements(path, read_ipa(next((SERIES / f"Series_{series}").glob("measurements_*.csv")), "tmac"), spec)
+            write_measurements(path, read_ipa(next((SERIES / f"Series_{series}").glob("measurements_*.csv")), "tmac", spec.device.orientation), spec)
             data[series] = read_measurements(path, spec)
     lines = compare("(d) UR10 real, C (val B)", spec, data["C"], data["B"], start_from_data=True, repeats=5)
     return lines + ["    (both start from armcal's registration of the tracker (Kabsch); positions and probe orientations fitted)"]

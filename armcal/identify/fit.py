@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from armcal.identify.identifiability import Conditioning, Identifiability, analyse, conditioning
-from armcal.identify.lm import LMResult, levenberg_marquardt
+from armcal.identify.lm import LMResult, solve
 from armcal.identify.problem import Problem
 from armcal.identify.uncertainty import Uncertainty, estimate
 from armcal.spec.sections import Fit
@@ -53,24 +53,30 @@ def fit(problem: Problem, settings: Fit, start: np.ndarray | None = None, identi
     """
     parameters = problem.parameters
     theta0 = parameters.nominal if start is None else np.asarray(start, dtype=float)
-    if identifiability is None:
-        identifiability = design_identifiability(problem, theta0)
+    design = None
+    if identifiability is None:  # the design point is the start: its evaluation serves both
+        design = problem.evaluate(theta0)
+        identifiability = analyse(design[1], parameters, parameters.free)
     base = np.array([parameters.index(name) for name in identifiability.base], dtype=int)
+    initial = None if design is None else (design[0], design[1][:, base])
+    del design  # the Jacobian of every parameter: only its base columns are kept
     lower = np.array([e.lower if e.lower is not None else -np.inf for e in parameters.entries])[base]
     upper = np.array([e.upper if e.upper is not None else np.inf for e in parameters.entries])[base]
 
-    def residuals(x: np.ndarray):
+    def residuals(x: np.ndarray, out: np.ndarray | None = None):
         theta = theta0.copy()
         theta[base] = x
-        r, J = problem.evaluate(theta)
-        return r, J[:, base]
+        return problem.evaluate(theta, base, out)
 
-    solver = levenberg_marquardt(residuals, theta0[base], lower, upper, settings.loss, settings.loss_scale, settings.max_iterations)
+    limit = settings.max_iterations
+    solver, r, J = solve(residuals, theta0[base], lower, upper, settings.loss, settings.loss_scale, limit, initial, buffered=True)
     theta = theta0.copy()
     theta[base] = solver.x
-    r, J = residuals(solver.x)
-    weights = np.sqrt(solver.weights)
-    weighted = J * weights[:, None]
-    uncertainty = estimate(weighted, r * weights, list(identifiability.base))
+    if np.all(solver.weights == 1.0):  # the linear loss: J and r are the weighted ones
+        weighted, r_weighted = J, r
+    else:
+        weights = np.sqrt(solver.weights)
+        weighted, r_weighted = J * weights[:, None], r * weights
+    uncertainty = estimate(weighted, r_weighted, list(identifiability.base))
     outliers = np.flatnonzero(solver.weights < OUTLIER_WEIGHT)
     return FitResult(theta, theta0, base, identifiability, conditioning(weighted, list(identifiability.base)), uncertainty, solver, outliers)

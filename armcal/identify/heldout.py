@@ -25,8 +25,8 @@ class MovedInstrument(Problem):
     kinematics: KinematicModel | None = None
     data: Measurements | None = None
 
-    def evaluate(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return Problem.evaluate(self, self.registered(theta))
+    def evaluate(self, theta: np.ndarray, columns: np.ndarray | None = None, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        return Problem.evaluate(self, self.registered(theta), columns, out)
 
     def registered(self, theta: np.ndarray) -> np.ndarray:
         """theta with the instrument-to-base transform fitted to these data."""

@@ -24,6 +24,11 @@ the geometry alone could not identify. Reported too: the observability index
 O1 = (s_1 ... s_m)^(1/m) / sqrt(M) (Borm & Menq), directions no parameter can
 carry, such as the overall scale of a network, and, at the solution, the
 condition number and the flat directions of the scaled base Jacobian.
+
+Every quantity here depends on the Jacobian only through its columns' inner products
+(norms, projections, singular values), so a tall Jacobian is first reduced to the
+triangular factor R of its QR decomposition (J^T J = R^T R), taken in row blocks:
+the analysis then costs O(p^3) whatever the number of readings, and no copy of J is made.
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ from armcal.kinematics.params import ParameterSet
 RANK_TOLERANCE = 1e-7  # norm of a unit column's part the columns chosen before it leave, below which it adds nothing
 PRIORITY = ("device", "target", "chain")  # who carries a redundancy: the instrument and the targets before the robot
 FLAT_RATIO = 1e-3  # s_k / s_1 of the scaled base Jacobian below which a direction is reported as flat
+ROWS = 4096  # rows of J per step of its blockwise QR (triangular)
 
 
 @dataclass(frozen=True)
@@ -63,25 +69,33 @@ def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identi
     scale = np.max(norms) if len(norms) else 1.0
     silent = norms <= 1e-12 * scale
     fixed += [(names[c], "does not affect the measurements") for c in columns[silent]]
-    columns, scaled = columns[~silent], J[:, columns[~silent]] / norms[~silent]
+    columns, norms = columns[~silent], norms[~silent]
+    scaled = J[:, columns]
+    scaled /= norms
     basis, chosen, dependent = np.zeros((len(J), 0)), [], []
     for role in PRIORITY:
         group = np.flatnonzero(roles[columns] == role)
         if not len(group):
             continue
-        projected = _off(basis, scaled[:, group])
+        projected = _off(basis, scaled[:, group]) if basis.shape[1] else scaled[:, group]  # x - 0 is x: no copies
         Q, R, pivots = scipy.linalg.qr(projected, mode="economic", pivoting=True)
         rank = int(np.sum(np.abs(np.diag(R)) > RANK_TOLERANCE))  # unit columns: |R_kk| is the new part's norm
         chosen += list(group[pivots[:rank]])
         dependent += list(group[pivots[rank:]])
         basis = np.column_stack([basis, Q[:, :rank]])
+        del projected, Q
+    del basis
+    # the choice above is made on J itself (a tie between equal columns is broken by rounding, as it always was);
+    # what follows needs only inner products of the columns: R
+    readings, J = len(J), triangular(J)
+    scaled = J[:, columns] / norms
     base = columns[chosen]
     base_names = [names[c] for c in base]
     fixed += [(names[columns[k]], _redundancy(scaled[:, chosen], base_names, scaled[:, k])) for k in dependent]
     rank = len(base)
     singular = np.linalg.svd(scaled[:, chosen], compute_uv=False) if rank else np.zeros(0)
     condition = float(singular[0] / singular[-1]) if rank else float("inf")
-    o1 = float(np.exp(np.mean(np.log(singular))) / np.sqrt(len(J))) if rank else 0.0
+    o1 = float(np.exp(np.mean(np.log(singular))) / np.sqrt(readings)) if rank else 0.0
     geometric = Identifiability(
         n_parameters=len(names),
         rank=rank,
@@ -94,6 +108,18 @@ def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identi
     )
     effects = [names[c] for c in np.flatnonzero(free & (roles == "effect"))]
     return extend(geometric, J, parameters, effects) if effects else geometric
+
+
+def triangular(J: np.ndarray) -> np.ndarray:
+    """R (p, p) with R^T R = J^T J (J itself when it has no more rows than columns): QR of J's first ROWS rows, then
+    of R stacked on the next ROWS rows, and so on (each step's copy is ROWS rows, never J)."""
+    p = J.shape[1]
+    if len(J) <= p:
+        return J
+    R = np.zeros((0, p))
+    for first in range(0, len(J), ROWS):
+        R = scipy.linalg.qr(np.vstack([R, J[first : first + ROWS]]), mode="r", check_finite=False)[0][:p]
+    return R
 
 
 def _off(basis: np.ndarray, columns: np.ndarray) -> np.ndarray:
@@ -114,6 +140,7 @@ def extend(design: Identifiability, J: np.ndarray, parameters: ParameterSet, nam
     effect columns kept before it; one that keeps no more than RANK_TOLERANCE of its
     norm is redundant: held at its value, with the base parameters that absorb it.
     """
+    J = triangular(J)
     index = parameters.index
     base_names = list(design.base)
     columns = J[:, [index(n) for n in base_names]]
@@ -159,6 +186,7 @@ def conditioning(J: np.ndarray, names: list[str]) -> Conditioning:
     """Condition number of the column-scaled J (base columns) and the directions it barely sees."""
     if not J.shape[1]:
         return Conditioning(float("inf"), ())
+    J = triangular(J)
     scaled = J / np.maximum(np.linalg.norm(J, axis=0), 1e-300)
     _, s, Vt = np.linalg.svd(scaled, full_matrices=False)
     flat = []

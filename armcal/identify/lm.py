@@ -62,7 +62,7 @@ def scaled_gradient(g: np.ndarray, A: np.ndarray, cost: float) -> float:
 
 
 def levenberg_marquardt(
-    residuals: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    residuals: Callable[..., tuple[np.ndarray, np.ndarray]],
     x0: np.ndarray,
     lower: np.ndarray | None = None,
     upper: np.ndarray | None = None,
@@ -71,22 +71,45 @@ def levenberg_marquardt(
     max_iterations: int = 100,
 ) -> LMResult:
     """Minimise 1/2 sum w(r) r(x)^2; ``residuals(x)`` returns (r, J)."""
+    return solve(residuals, x0, lower, upper, loss, loss_scale, max_iterations)[0]
+
+
+def solve(
+    residuals: Callable[..., tuple[np.ndarray, np.ndarray]],
+    x0: np.ndarray,
+    lower: np.ndarray | None = None,
+    upper: np.ndarray | None = None,
+    loss: str = "linear",
+    loss_scale: float = 3.0,
+    max_iterations: int = 100,
+    initial: tuple[np.ndarray, np.ndarray] | None = None,
+    buffered: bool = False,
+) -> tuple[LMResult, np.ndarray, np.ndarray]:
+    """levenberg_marquardt, with (r, J) at the solution; ``initial``: (r, J) at x0 when the caller has them.
+
+    ``buffered``: ``residuals(x, out)`` writes J into ``out`` (None: a fresh array), a Jacobian a rejected trial
+    left; so the fit holds two Jacobians at most, the accepted one and the trial's, and none is copied."""
     x = np.asarray(x0, dtype=float).copy()
     lower = np.full_like(x, -np.inf) if lower is None else lower
     upper = np.full_like(x, np.inf) if upper is None else upper
-    r, J = residuals(x)
+    evaluate = (lambda x, out: residuals(x, out)) if buffered else (lambda x, out: residuals(x))  # noqa: E731
+    r, J = evaluate(x, None) if initial is None else initial
+    spare = None
     w = robust_weights(r, loss, loss_scale)
     cost = 0.5 * float(np.sum(w * r**2))
     lam = 1e-3
     for iteration in range(1, max_iterations + 1):
-        JW = J * w[:, None]
-        A = JW.T @ J
-        g = JW.T @ r
+        if loss == "linear":  # w = 1: no weighted copy of J
+            A, g = J.T @ J, J.T @ r
+        else:
+            JW = J * w[:, None]
+            A, g = JW.T @ J, JW.T @ r
+            del JW
         if cost == 0.0:
-            return LMResult(x, cost, iteration - 1, True, "the model reproduces every reading exactly", w)
+            return LMResult(x, cost, iteration - 1, True, "the model reproduces every reading exactly", w), r, J
         gradient = scaled_gradient(g, A, cost)
         if gradient <= GTOL:
-            return LMResult(x, cost, iteration - 1, True, f"scaled gradient {gradient:.1e} below {GTOL:g}", w)
+            return LMResult(x, cost, iteration - 1, True, f"scaled gradient {gradient:.1e} below {GTOL:g}", w), r, J
         largest = float(np.max(np.diag(A))) if len(A) else 0.0
         D = np.maximum(np.diag(A), 1e-12 * largest if largest > 0 else 1.0)  # relative floor: scale-free
         while True:
@@ -96,26 +119,28 @@ def levenberg_marquardt(
                 lam *= 10.0
                 continue
             x_new = np.clip(x + step, lower, upper)
-            r_new, J_new = residuals(x_new)
+            r_new, J_new = evaluate(x_new, spare)
             cost_new = 0.5 * float(np.sum(w * r_new**2))
             if np.isfinite(cost_new) and cost_new <= cost:
                 break
+            spare = J_new if buffered else None
             lam *= 4.0
             if lam > 1e16:
                 predicted = 0.5 * float(g @ np.linalg.pinv(A) @ g)
                 if predicted <= FTOL * cost:
-                    return LMResult(x, cost, iteration, True, "at the minimum to rounding (no step lowers the cost)", w)
-                return LMResult(x, cost, iteration, False, "no step lowers the cost (lambda exhausted)", w)
+                    return LMResult(x, cost, iteration, True, "at the minimum to rounding (no step lowers the cost)", w), r, J
+                return LMResult(x, cost, iteration, False, "no step lowers the cost (lambda exhausted)", w), r, J
         taken = x_new - x
         predicted = -float(g @ taken) - 0.5 * float(taken @ A @ taken)
         decrease = cost - cost_new
         scaled_step = float(np.max(np.abs(taken) * np.sqrt(np.diag(A)))) / max(np.sqrt(2.0 * cost), 1e-300) if len(taken) else 0.0
+        spare = J if buffered else None
         x, r, J = x_new, r_new, J_new
         w = robust_weights(r, loss, loss_scale)
         cost = 0.5 * float(np.sum(w * r**2))
         lam = max(lam / 5.0, 1e-12)
         if scaled_step <= XTOL:
-            return LMResult(x, cost, iteration, True, f"scaled step {scaled_step:.1e} below {XTOL:g}", w)
+            return LMResult(x, cost, iteration, True, f"scaled step {scaled_step:.1e} below {XTOL:g}", w), r, J
         if loss == "linear" and decrease <= FTOL * cost_new and predicted <= FTOL * cost_new:
-            return LMResult(x, cost, iteration, True, f"relative cost decrease below {FTOL:g}", w)
-    return LMResult(x, cost, max_iterations, False, f"iteration limit ({max_iterations}) reached before a minimum", w)
+            return LMResult(x, cost, iteration, True, f"relative cost decrease below {FTOL:g}", w), r, J
+    return LMResult(x, cost, max_iterations, False, f"iteration limit ({max_iterations}) reached before a minimum", w), r, J

@@ -3,10 +3,12 @@
 theta = [robot parameters; device parameters]. Each sample contributes one
 residual per reading, (predicted - measured) / sigma with sigma from the
 device's noise model (angles wrapped to [-pi, pi]). Each key's samples are
-evaluated by one mapped call of a compiled function (identify/compiled.py) that
-returns the readings and their exact Jacobian, from automatic differentiation of
-the measurement function (never finite differences); the data are inputs of that
-call, not constants of a graph, and the weighting is done in numpy on its outputs.
+evaluated by mapped calls (CHUNK samples each) of a compiled function
+(identify/compiled.py) that returns the readings and their exact Jacobian, from
+automatic differentiation of the measurement function (never finite differences);
+the data are inputs of those calls, not constants of a graph, and the weighting is
+done in numpy, written straight into the residual vector and the Jacobian (of the
+columns asked for: a fit asks for its base set's), which is the only M x p array made.
 Parameter values and sigmas never enter the function either, so its compiled library
 (keyed on the generated code) serves every edit of noise, nominal values or limits.
 """
@@ -47,11 +49,22 @@ class Problem:
     blocks: tuple["KeyBlock", ...]  # the samples of each key, in the order of the residuals
     residuals: Residual
 
-    def evaluate(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Weighted residuals (M,) and their Jacobian (M, len(theta))."""
+    def evaluate(self, theta: np.ndarray, columns: np.ndarray | None = None, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted residuals (M,) and their Jacobian (M, len(columns)), columns of theta (default: all).
+
+        The Jacobian is written straight into ``out`` (an (M, len(columns)) array filled by an earlier call with
+        the same columns, so its structural zeros are in place) or a fresh column-major array."""
         theta = np.asarray(theta, dtype=float).ravel()
-        parts = [block.weighted(theta) for block in self.blocks]
-        return np.concatenate([r for r, _ in parts]), np.concatenate([J for _, J in parts])
+        columns = np.arange(len(theta)) if columns is None else np.asarray(columns, dtype=int)
+        position = np.full(len(theta), -1)
+        position[columns] = np.arange(len(columns))
+        r = np.empty(len(self.residuals.sigma))
+        J = np.zeros((len(r), len(columns)), order="F") if out is None else out
+        start = 0
+        for block in self.blocks:
+            block.weighted(theta, position, r, J, start)
+            start += block.size
+        return r, J
 
 
 @dataclass(frozen=True)
@@ -65,77 +78,95 @@ class ChannelRows:
     angle: bool
 
 
-class KeyBlock:
-    """All samples of one key: one mapped call of the key's compiled function, then weighting in numpy.
+CHUNK = 512  # samples per mapped call: its buffers stay cache-sized and small whatever the size of the data
 
-    The joint readings and extras are the mapped call's fixed inputs; theta is the
-    only one that changes. Predicted minus measured, wrapped for angles, over sigma;
-    the Jacobian rows of sample k are columns k n..(k+1) n of the mapped output.
+
+class KeyBlock:
+    """All samples of one key: mapped calls of the key's compiled function over chunks of CHUNK samples, each
+    weighted in numpy straight into the problem's residual vector and Jacobian.
+
+    The joint readings and extras are the calls' fixed inputs; theta is the only one
+    that changes. Predicted minus measured, wrapped for angles, over sigma. A call's
+    outputs land in numpy memory through CasADi's function buffer (converting CasADi
+    matrices costs more than evaluating them); the Jacobian's nonzeros of sample k are
+    the k-th run of the per-sample pattern (the mapped output is the samples' Jacobians
+    side by side), so no dense copy of the mapped output is ever made.
     """
 
     def __init__(self, function: ca.Function, Q: np.ndarray, X: np.ndarray, sizes: tuple[int, int, int], channels: list[ChannelRows]):
-        n_robot, n_device, _ = sizes
-        count = len(Q)
-        q, x, theta = ca.MX.sym("Q", *Q.T.shape), ca.MX.sym("X", *X.T.shape), ca.MX.sym("theta", sum(sizes))
-        p, pd, pe = theta[:n_robot], theta[n_robot : n_robot + n_device], theta[n_robot + n_device :]
-        mapped = ca.Function("block", [q, x, theta], list(function.map(count)(q, x, p, pd, pe)))
-        self._call = BufferedCall(mapped, {0: Q.T, 1: X.T})
-        self._count, self._n = count, sum(sizes)
+        self._function, self._sizes = function, sizes
+        self._q = np.ascontiguousarray(Q, dtype=float)  # row k: column k of a mapped call's Q input (column-major)
+        self._x = np.ascontiguousarray(X, dtype=float)
+        self._theta = np.zeros(sum(sizes))
+        self._calls: dict[int, tuple] = {}  # samples in a call -> (buffer, run, values, jacobian nonzeros)
+        values, jacobian = function.sparsity_out(0), function.sparsity_out(1)
+        self._value_rows = np.array(values.get_triplet()[0], dtype=int)
+        self._n_out = values.size1()
+        rows, columns = jacobian.get_triplet()  # one sample's nonzeros, in CasADi's (column-major) order
+        self._jacobian_rows, self._jacobian_columns = np.array(rows, dtype=int), np.array(columns, dtype=int)
         self.channels = channels
 
-    def weighted(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        values, jacobian = self._call(theta)
-        r_parts, J_parts = [], []
+    @property
+    def size(self) -> int:
+        """Residuals of the block."""
+        return sum(len(c.rows) for c in self.channels)
+
+    def _mapped(self, count: int) -> tuple:
+        """The buffer of a call over ``count`` samples (made once; the chunks of that length share it)."""
+        if count not in self._calls:
+            n_robot, n_device, _ = self._sizes
+            q, x = ca.MX.sym("Q", self._q.shape[1], count), ca.MX.sym("X", self._x.shape[1], count)
+            theta = ca.MX.sym("theta", len(self._theta))
+            p, pd, pe = theta[:n_robot], theta[n_robot : n_robot + n_device], theta[n_robot + n_device :]
+            mapped = ca.Function("block", [q, x, theta], list(self._function.map(count)(q, x, p, pd, pe)))
+            buffer, run = mapped.buffer()
+            values, jacobian = np.zeros(mapped.nnz_out(0)), np.zeros(mapped.nnz_out(1))
+            buffer.set_arg(2, memoryview(self._theta))
+            buffer.set_res(0, memoryview(values))
+            buffer.set_res(1, memoryview(jacobian))
+            self._calls[count] = (buffer, run, values, jacobian)
+        return self._calls[count]
+
+    def weighted(self, theta: np.ndarray, position: np.ndarray, r: np.ndarray, J: np.ndarray, start: int) -> None:
+        """Write the block's weighted residuals into r[start:start + size] and their Jacobian into the same rows of J;
+        ``position[j]`` is theta's j-th parameter's column of J (-1: not wanted)."""
+        self._theta[:] = theta
+        taken = position[self._jacobian_columns] >= 0
+        wanted = []  # per channel: its nonzeros of one sample that J wants, and their columns
         for c in self.channels:
-            difference = values[c.channel, c.rows] - c.measured
-            if c.angle:
-                difference = np.arctan2(np.sin(difference), np.cos(difference))
-            r_parts.append(difference * c.weight)
-            J_parts.append(jacobian[c.channel].reshape(self._count, self._n)[c.rows] * c.weight[:, None])
-        return np.concatenate(r_parts), np.concatenate(J_parts)
+            nonzeros = np.flatnonzero(taken & (self._jacobian_rows == c.channel))
+            wanted.append((nonzeros, position[self._jacobian_columns[nonzeros]]))
+        count = len(self._q)
+        for first in range(0, count, CHUNK):
+            last = min(first + CHUNK, count)
+            buffer, run, values, jacobian = self._mapped(last - first)
+            buffer.set_arg(0, memoryview(self._q[first:last].reshape(-1)))
+            buffer.set_arg(1, memoryview(self._x[first:last].reshape(-1)))
+            run()
+            predicted = np.zeros((last - first, self._n_out))
+            predicted[:, self._value_rows] = values.reshape(last - first, -1)
+            per_sample = jacobian.reshape(last - first, -1)
+            row = start
+            for c, (nonzeros, target) in zip(self.channels, wanted):
+                low, high = np.searchsorted(c.rows, (first, last))
+                here = slice(row + low, row + high)
+                local = c.rows[low:high] - first
+                every = high - low == last - first  # all samples of the chunk take part: slices, no copies
+                difference = (predicted[:, c.channel] if every else predicted[local, c.channel]) - c.measured[low:high]
+                if c.angle:
+                    difference = np.arctan2(np.sin(difference), np.cos(difference))
+                weight = c.weight[low:high]
+                r[here] = difference * weight
+                if len(nonzeros):
+                    block = per_sample[:, nonzeros] if every else per_sample[local][:, nonzeros]
+                    J[here, target] = block * weight[:, None]
+                row += len(c.rows)
 
     def with_weights(self, weights: list[np.ndarray]) -> "KeyBlock":
-        """The same block (the same compiled call) with new weights 1 / sigma, one array per channel."""
+        """The same block (the same compiled calls) with new weights 1 / sigma, one array per channel."""
         block = copy.copy(self)
         block.channels = [replace(c, weight=np.asarray(w, dtype=float)) for c, w in zip(self.channels, weights)]
         return block
-
-
-class BufferedCall:
-    """Evaluates a CasADi Function through its FunctionBuffer: numpy in, numpy out.
-
-    Converting the outputs from CasADi matrices costs more than evaluating them;
-    the buffer writes each output's nonzeros straight into numpy memory, which
-    are then scattered into dense arrays (fresh ones on every call). ``fixed``
-    inputs are set once; the call gives the remaining input (the last).
-    """
-
-    def __init__(self, function: ca.Function, fixed: dict[int, np.ndarray] | None = None):
-        self._buffer, self._run = function.buffer()
-        self._inputs = {i: np.ascontiguousarray(np.asarray(v, dtype=float).T).ravel() for i, v in (fixed or {}).items()}  # column-major
-        self._free = function.n_in() - 1
-        self._inputs[self._free] = np.zeros(function.nnz_in(self._free))
-        for i, array in self._inputs.items():
-            self._buffer.set_arg(i, memoryview(array))
-        self._nonzeros, self._shapes, self._positions = [], [], []
-        for i in range(function.n_out()):
-            sparsity = function.sparsity_out(i)
-            shape = (sparsity.size1(), sparsity.size2())
-            rows, columns = sparsity.get_triplet()
-            self._nonzeros.append(np.zeros(sparsity.nnz()))
-            self._shapes.append(shape)
-            self._positions.append(np.ravel_multi_index((np.array(rows, dtype=int), np.array(columns, dtype=int)), shape))
-            self._buffer.set_res(i, memoryview(self._nonzeros[i]))
-
-    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, ...]:
-        self._inputs[self._free][:] = np.asarray(x, dtype=float).ravel()
-        self._run()
-        outputs = []
-        for nonzeros, shape, positions in zip(self._nonzeros, self._shapes, self._positions):
-            dense = np.zeros(shape)
-            dense.flat[positions] = nonzeros
-            outputs.append(dense)
-        return tuple(outputs)
 
 
 def combined_parameters(kinematics: KinematicModel, device: DeviceModel, effects: EffectSet = EffectSet()) -> ParameterSet:

@@ -58,7 +58,10 @@ def timed_run(code: Path, spec: Path, out: Path, cache: Path) -> tuple[float, fl
     env = {**os.environ, "PYTHONPATH": str(code), "ARMCAL_CACHE": str(cache)}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "armcal", "run", str(spec), "--out", str(out), "--no-pdf", "--force"], capture_output=True, text=True, env=env)
+    # cwd: the example's folder, as a user runs it; `python -m` puts the cwd first on sys.path, so run from a checkout
+    # it would import that checkout's armcal instead of PYTHONPATH's
+    done = subprocess.run([sys.executable, "-m", "armcal", "run", str(spec), "--out", str(out), "--no-pdf", "--force"],
+                          capture_output=True, text=True, env=env, cwd=spec.parent)
     wall = time.perf_counter() - started
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode not in (0, 3):

@@ -1,9 +1,10 @@
 """Compiled measurement functions, cached across runs.
 
 All functions of a problem are generated as C in one file and compiled once by
-the system's C compiler; the shared object is kept under a hash of that C source
-(with the compiler and its flags), so it is keyed on exactly what its machine code
-depends on. Values a user edits often (noise, nominal values, limits, data) are
+the system's C compiler; the shared object is kept under a hash of the functions'
+serialized graphs, CasADi's version (together they fix the C source), the compiler
+and its flags, so it is keyed on what its machine code depends on, and a run that
+finds its library generates no C at all. Values a user edits often (noise, nominal values, limits, data) are
 inputs of the functions or never enter them, so editing them reuses the library;
 a change of structure (another robot, instrument, key or candidate effect) builds
 another. Without a C compiler CasADi's virtual machine evaluates them.
@@ -75,9 +76,9 @@ def compiled(functions: list[ca.Function], identity: str | None = None) -> list[
     if compiler is None or not functions or mode == "off":
         return functions
     names = [f"f{i}" for i in range(len(functions))]
-    source = _source(functions, names)
-    if identity is None:
-        digest = builder.key(source, compiler)
+    serialized = _serialized(functions, names)
+    if identity is None:  # the serialized graph and CasADi's version determine the generated source
+        digest = builder.key(f"{serialized}\0casadi {ca.__version__}", compiler)
     else:
         digest = hashlib.sha256(f"{identity}|armcal {__version__}|casadi {ca.__version__}".encode()).hexdigest()[:32]
     folder = _private_folder(mode)
@@ -86,6 +87,7 @@ def compiled(functions: list[ca.Function], identity: str | None = None) -> list[
     library = folder / f"armcal_{digest}.so"
     if builder.intact(library):
         return _loaded(library, names)
+    source = _source(serialized, functions, names)
     if mode == "background":
         _start_builder(source, library, compiler)
         return functions
@@ -105,11 +107,15 @@ def _loaded(library: Path, names: list[str]) -> list[ca.Function]:
     return [ca.external(name, str(library)) for name in names]
 
 
-def _source(functions: list[ca.Function], names: list[str]) -> str:
-    """The C source of all functions, each under its name in ``names``; generated once per process for the same
-    functions (a run builds the same problem's functions for every fold and data set: 0.05-0.1 s of codegen each,
-    while their serialized form, the memo's key, takes a fifth of that)."""
-    serialized = hashlib.sha256("\0".join([*names, *(f.serialize() for f in functions)]).encode()).hexdigest()
+def _serialized(functions: list[ca.Function], names: list[str]) -> str:
+    """SHA-256 of the functions' serialized graphs under their names: what their generated source depends on
+    (besides CasADi's version), a fifth of the cost of generating it."""
+    return hashlib.sha256("\0".join([*names, *(f.serialize() for f in functions)]).encode()).hexdigest()
+
+
+def _source(serialized: str, functions: list[ca.Function], names: list[str]) -> str:
+    """The C source of all functions, each under its name in ``names``; generated only for a library to build, and
+    once per process for the same functions (``serialized``; 0.05-0.1 s of codegen each)."""
     if serialized not in _sources:
         if len(_sources) >= 16:
             _sources.pop(next(iter(_sources)))
@@ -188,7 +194,7 @@ def _build(functions: list[ca.Function], names: list[str], library: Path, compil
     """Compile the functions into ``library`` (under the folder's build lock) and record its hash."""
     with tempfile.TemporaryDirectory(dir=library.parent) as work:
         source = Path(work) / builder.SOURCE
-        source.write_text(_source(functions, names))
+        source.write_text(_source(_serialized(functions, names), functions, names))
         with builder.locked(library.parent):
             builder.build(source, library, compiler)
 

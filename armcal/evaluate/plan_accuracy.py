@@ -52,13 +52,13 @@ class PlanStudy:
 
     With a working ``region`` (procedures/regions.py) the held-out poses are random poses in the region (at the
     task's orientation where the region is ``oriented``), the I-criterion's weight W is the average position
-    information of another draw of them (REGION_POOL poses, never the held-out ones), and ``random_in_region``
-    draws random designs from REGION_POOL poses whose point lies in the region at any orientation (at the task's
+    information of another draw of them (``region_pool`` poses, never the held-out ones), and ``random_in_region``
+    draws random designs from ``region_pool`` poses whose point lies in the region at any orientation (at the task's
     orientation alone the base set is not identifiable); plans are still chosen from the candidates over the
     whole joint range."""
 
     def __init__(self, spec: Spec, spec_dir: Path, candidates: int, seed: int = 0, existing: ps.Candidates | None = None,
-                 criterion: str = "D", region: Region | None = None):
+                 criterion: str = "D", region: Region | None = None, region_pool: int = REGION_POOL):
         self.spec, self.criterion, self.region = spec, criterion, region
         self.simulator = CampaignSimulator(spec, spec_dir, validation=False, calibration=False)
         self.kinematics = self.simulator.kinematics
@@ -76,18 +76,21 @@ class PlanStudy:
             self.region_pool, held = None, ps.candidate_poses(spec, self.kinematics, self.device, HELD_OUT, seed + 1)
         else:
             any_orientation = replace(region, oriented=False)
-            self.region_pool = region_candidates(spec, self.kinematics, self.device, any_orientation, REGION_POOL, seed + 2)
-            weighted = region_candidates(spec, self.kinematics, self.device, region, REGION_POOL, seed + 3) if region.oriented else None
+            self.region_pool = region_candidates(spec, self.kinematics, self.device, any_orientation, region_pool, seed + 2)
+            weighted = region_candidates(spec, self.kinematics, self.device, region, region_pool, seed + 3) if region.oriented else None
             held = region_candidates(spec, self.kinematics, self.device, region, HELD_OUT, seed + 1)
-            found = [len(c) for c in (self.region_pool, weighted or self.region_pool, held)]
-            if found < [REGION_POOL, REGION_POOL, HELD_OUT]:
+            found = [len(c) for c in (self.region_pool, weighted if weighted is not None else self.region_pool, held)]
+            if any(f < n for f, n in zip(found, (region_pool, region_pool, HELD_OUT))):
                 raise UserError(f"too few random poses the instrument reads lie in the working region {region.name}: "
-                                f"{sum(found)} of {2 * REGION_POOL + HELD_OUT} found")
+                                f"{sum(found)} of {2 * region_pool + HELD_OUT} found")
         self.designs = ps.Candidates.joined([self.candidates, self.region_pool])  # the rows a design may use
         everything = ps.information(spec, self.kinematics, self.device, ps.Candidates.joined([self.designs, weighted]))
         self.information = everything.subset(slice(0, len(self.candidates)))
-        self.weight = (self.information if region is None else everything.subset(slice(len(self.designs) if region.oriented else len(self.candidates),
-                                                                                         None if region.oriented else len(self.designs)))).prediction_weight()
+        if region is None:  # W over the poses the held-out accuracy is about: the candidates, the region's pool, the oriented poses
+            weighted_rows = slice(0, len(self.candidates))
+        else:
+            weighted_rows = slice(len(self.candidates), len(self.designs)) if weighted is None else slice(len(self.designs), None)
+        self.weight = everything.subset(weighted_rows).prediction_weight()
         self._blocks = everything.blocks[: len(self.designs)]
         self.held_out = held.plan(range(len(held)))
         self.effects = EffectSet(tuple(from_spec(e) for e in spec.effects))
@@ -198,6 +201,7 @@ def accuracy_label(spec: Spec, study: PlanStudy) -> tuple[str, str, float]:
         spec.device.type, "3D position error of the targets (instrument frame)"
     )
     unit, scale = ("mm", 1.0) if study.information.metric == "length" else ("arcsec", from_internal(1.0, "angle", "arcsec"))
-    definition = (f"RMS {metric} at {HELD_OUT} independent held-out poses: the model calibrated from the plan's "
+    where = "" if study.region is None else f" in the working region ({study.region.name}, {'the task' if study.region.oriented else 'any'} orientation)"
+    definition = (f"RMS {metric} at {HELD_OUT} independent held-out poses{where}: the model calibrated from the plan's "
                   "noisy readings against the true robot's noise-free readings")
     return definition, unit, scale

@@ -52,6 +52,12 @@ def worth(planned: float, random: float, random3: float) -> float:
     return float(3 ** (np.log(random / planned) / np.log(random / random3)))
 
 
+def paired_error(planned: np.ndarray, random: np.ndarray) -> float:
+    """Standard error of the ratio of the means planned / random over the robots (first order: the paired
+    differences' standard error over the random mean), for the table's I/a3N and I/b3N."""
+    return float(np.std(planned - random, ddof=1) / np.sqrt(len(planned)) / np.mean(random))
+
+
 def study(spec_path: Path, region: str, oriented: bool, runs: int, counts=COUNTS, seed: int = 0):
     loaded = load_spec(spec_path)
     where = working_region(loaded.spec, compile_robot(loaded.spec.robot), region, oriented)
@@ -61,16 +67,17 @@ def study(spec_path: Path, region: str, oriented: bool, runs: int, counts=COUNTS
     for j, count in enumerate(curve.counts):
         m = {k: float(np.mean(a[:, j])) for k, a in (("I", curve.planned["I"]), ("D", curve.planned["D"]), ("a1", curve.random[1]),
                                                       ("a3", curve.random[3]), ("b1", curve.random_in_region[1]), ("b3", curve.random_in_region[3]))}
-        rows.append({"N": int(count), **m, "linearised": float(curve.linearised["I"][j]), "region": where.describe()})
+        spread = {f"se_{k}3": paired_error(curve.planned["I"][:, j], a[:, j]) for k, a in (("a", curve.random[3]), ("b", curve.random_in_region[3]))}
+        rows.append({"N": int(count), **m, **spread, "linearised": float(curve.linearised["I"][j]), "region": where.describe()})
     return rows
 
 
 def table(rows: list[dict]) -> str:
-    lines = [f"{'case':34s} {'N':>3s} {'plan I':>7s} {'plan D':>7s} {'a: N':>7s} {'a: 3N':>7s} {'b: N':>7s} {'b: 3N':>7s} "
-             f"{'I/a3N':>6s} {'I/b3N':>6s} {'worth a':>7s} {'worth b':>7s} {'I lin.':>7s}"]
+    lines = [f"{'case':42s} {'N':>3s} {'plan I':>7s} {'plan D':>7s} {'a: N':>7s} {'a: 3N':>7s} {'b: N':>7s} {'b: 3N':>7s} "
+             f"{'I/a3N':>11s} {'I/b3N':>11s} {'worth a':>7s} {'worth b':>7s} {'I lin.':>7s}"]
     for r in rows:
-        lines.append(f"{r['case']:34s} {r['N']:3d} {r['I']:7.4f} {r['D']:7.4f} {r['a1']:7.4f} {r['a3']:7.4f} {r['b1']:7.4f} {r['b3']:7.4f} "
-                     f"{r['I'] / r['a3']:6.2f} {r['I'] / r['b3']:6.2f} {worth(r['I'], r['a1'], r['a3']):7.2f} "
+        lines.append(f"{r['case']:42s} {r['N']:3d} {r['I']:7.4f} {r['D']:7.4f} {r['a1']:7.4f} {r['a3']:7.4f} {r['b1']:7.4f} {r['b3']:7.4f} "
+                     f"{r['I'] / r['a3']:5.2f}+-{r['se_a3']:4.2f} {r['I'] / r['b3']:5.2f}+-{r['se_b3']:4.2f} {worth(r['I'], r['a1'], r['a3']):7.2f} "
                      f"{worth(r['I'], r['b1'], r['b3']):7.2f} {r['linearised']:7.4f}")
     return "\n".join(lines)
 
@@ -105,7 +112,7 @@ def main() -> None:
     print(table(rows))
     print(f"held-out accuracy in the working region, mm, mean over {args.runs} simulated robots (the same for every design); "
           "a: random over the whole joint range, b: random in the region (any orientation); I/a3N <= 1: N planned poses reach 3N random (a); "
-          "worth: the planned N are as good as worth x N random poses; 'I lin.': sqrt(trace W M^-1) of the I-plan, noise only")
+          "+-: standard error over the robots (paired); worth: the planned N are as good as worth x N random poses; 'I lin.': sqrt(trace W M^-1) of the I-plan, noise only")
 
 
 if __name__ == "__main__":

@@ -8,7 +8,8 @@ position reading it has). Orientation and angle readings do not enter it, except
 angles only (a theodolite): there it is the RMS error of the predicted angles (azimuth, elevation), in rad. The held-out poses are a second,
 independent draw of candidates (the same distribution as the candidates the plan was chosen from: uniform in
 the joint limits and readable, or random points on the shells), so the figure is the accuracy a user gets
-over the space the candidates cover.
+over the space the candidates cover. With a working region (``PlanStudy(region=...)``, armcal plan --region) the
+held-out poses are random poses in that region instead (procedures/regions.py; docs/plan.md).
 
 Robot r of a study is drawn from the r-th child of SeedSequence(seed) by the spec's manufacturing-error
 model (simulate/truth.py, Stone 7.1-7.8; never the fitted model), measured at the plan's poses with the

@@ -9,9 +9,12 @@ accurate:
     there, else scaled and placed in the robot's own workspace (placement.py, as the grid task places it).
 The point is the one the tasks use: the instrument's one measured target (a tracker's reflector), else the tool.
 
-Poses in the region (``region_candidates``) are configurations uniform within the joint limits, kept where the
-point lies in the box and the instrument reads the pose: the distribution of random poses of a cell that works
-in that box, with any orientation the joints allow.
+Poses in the region (``region_candidates``), those the instrument reads only:
+  - at any orientation: configurations uniform within the joint limits, kept where the point lies in the box (the
+    random poses of a cell that works in that box, with any orientation the joints allow);
+  - at the task's orientation (``Region.oriented``): points uniform in the box at the placement's orientation (Stone
+    7.2.1's, tool pointing down), solved by inverse kinematics (Stone 5.4): a cell that works at one orientation.
+    Such poses alone do not identify the base parameters; they serve as held-out poses and as the weight W.
 """
 
 from __future__ import annotations

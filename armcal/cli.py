@@ -426,15 +426,17 @@ def plan(
     extend: Annotated[Path | None, typer.Option("--extend", help="A pose list to keep and add N poses to.", metavar="CSV")] = None,
     runs: Annotated[int, typer.Option("--runs", help="Simulated robots that predict the held-out accuracy (0: none).", metavar="R")] = 50,
     seed: Annotated[int | None, typer.Option("--seed", help="Seed of the candidates and robots (default: the spec's simulate.seed).", metavar="N", min=0)] = None,
-    criterion: Annotated[str, typer.Option("--criterion", help="D (log det of the information, the default) or I (average held-out prediction variance).", metavar="D|I")] = "D",
+    criterion: Annotated[str | None, typer.Option("--criterion", help="D (log det of the information, the default) or I (average held-out prediction variance; the default with --region).", metavar="D|I")] = None,
     force: Annotated[bool, typer.Option("--force", help="Replace existing POSES and POSES.json.")] = False,
+    region: Annotated[str | None, typer.Option("--region", help="Predict and plan for the working region: iso_cube (the ISO 9283 cube) or grid (Stone's grid box).", metavar="iso_cube|grid")] = None,
+    orientation: Annotated[str, typer.Option("--orientation", help="The region's poses: at the task's orientation (task, the default) or any.", metavar="task|any")] = "task",
 ) -> None:
     """Choose N calibration poses from M readable candidates (D-optimal), with predicted uncertainties and accuracy (docs/plan.md)."""
     from armcal.planner import plan_command
 
     say = lambda line: typer.echo(line, err=True)  # noqa: E731
     with _progress_bar("robots") as show:
-        result, written = plan_command(spec, poses, candidates, extend, out, force, runs, seed, criterion, show, say)
+        result, written = plan_command(spec, poses, candidates, extend, out, force, runs, seed, criterion, show, say, region, orientation)
     typer.echo(result.text + f"\nwrote {', '.join(str(p) for p in written)}")
 
 

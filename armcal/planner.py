@@ -24,6 +24,7 @@ from armcal.evaluate.montecarlo import robot_seeds
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_label
 from armcal.fileio import refuse_replacing
 from armcal.procedures import pose_selection as ps
+from armcal.procedures.regions import REGIONS, working_region
 from armcal.report.render import write_files
 from armcal.spec import load_spec
 from armcal.units import from_internal
@@ -33,6 +34,7 @@ MAX_CANDIDATES = 200_000
 DEFAULT_CANDIDATES = 2000
 DEFAULT_RUNS = 50
 DEVICES = ("tracker", "theodolite", "ballbar")
+ORIENTATIONS = ("task", "any")
 CRITERIA = {
     "D": "D-optimal: maximum log det of the information matrix M = J^T J on the base parameters (J weighted by 1/sigma)",
     "I": "I-optimal: minimum trace(W M^-1), the linearised mean squared held-out position error (M = J^T J on the base parameters)",
@@ -52,9 +54,14 @@ def side_file(out: Path) -> Path:
 
 
 def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | None, out: Path, force: bool,
-                 runs: int, seed: int | None, criterion: str = "D", progress: Callable[[int, int], None] | None = None,
-                 say: Callable[[str], None] = lambda line: None) -> tuple[PosePlan, list[Path]]:
-    """Plan, predict and write POSES.csv and POSES.json; a user error for anything the user can fix."""
+                 runs: int, seed: int | None, criterion: str | None = None, progress: Callable[[int, int], None] | None = None,
+                 say: Callable[[str], None] = lambda line: None, region: str | None = None,
+                 orientation: str = "task") -> tuple[PosePlan, list[Path]]:
+    """Plan, predict and write POSES.csv and POSES.json; a user error for anything the user can fix.
+
+    ``region`` (iso_cube, grid; procedures/regions.py): the accuracy that counts is in the robot's working region,
+    its poses at the task's ``orientation`` or at any; the criterion defaults to I then (W over the region)."""
+    criterion = criterion or ("I" if region else "D")
     if not 1 <= poses <= MAX_POSES:
         raise UserError(f"--poses {poses}: give a number of poses from 1 to {MAX_POSES}")
     if not 1 <= candidates <= MAX_CANDIDATES:
@@ -63,6 +70,10 @@ def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | No
         raise UserError(f"--candidates {candidates} is fewer than --poses {poses}: the poses are chosen among the candidates")
     if criterion not in CRITERIA:
         raise UserError(f"--criterion {criterion}: choose D (the default) or I")
+    if region is not None and region not in REGIONS:
+        raise UserError(f"--region {region}: choose one of {', '.join(REGIONS)}")
+    if orientation not in ORIENTATIONS:
+        raise UserError(f"--orientation {orientation}: choose task (the default) or any")
     if runs < 0:
         raise UserError(f"--runs {runs}: give 0 (no Monte Carlo) or more simulated robots")
     refuse_replacing([out, side_file(out)], [spec_path, *([extend] if extend else [])], force)
@@ -70,10 +81,18 @@ def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | No
     spec = loaded.spec
     if spec.device.type not in DEVICES:
         raise UserError(f"{spec_path}: armcal plan chooses poses for a {', '.join(DEVICES[:-1])} or {DEVICES[-1]}, not a {spec.device.type}")
+    if region is not None and spec.device.type == "ballbar":
+        raise UserError(f"--region {region}: a ball-bar reads bar lengths on its shells, not positions in a working region; plan without --region")
     seed = (spec.simulate.seed if spec.simulate else 0) if seed is None else seed
     say(f"candidates: {candidates} random poses{' on the shells (inverse kinematics)' if spec.device.type == 'ballbar' else ''} ...")
     existing_q, existing_keys, existing = _existing(spec, extend)
-    study = PlanStudy(spec, loaded.path.parent, candidates, seed, existing, criterion)
+    where = None
+    if region is not None:
+        from armcal.kinematics.compiler import compile_robot
+
+        say(f"working region: {region}, poses at {'the task' if orientation == 'task' else 'any'} orientation ...")
+        where = working_region(spec, compile_robot(spec.robot), region, orientation == "task")
+    study = PlanStudy(spec, loaded.path.parent, candidates, seed, existing, criterion, where)
     if study.pool < poses:
         raise UserError(f"only {study.pool} of {candidates} candidates are readable ({_dropped(study.fresh_dropped)}); "
                         f"ask for more --candidates or fewer --poses")
@@ -118,13 +137,16 @@ def _monte_carlo(study: PlanStudy, rows: np.ndarray, poses: int, runs: int, prog
     """Held-out accuracy (mm) of the plan and of random poses of the same number on the same robots."""
     if runs == 0:
         return None
-    planned, random = np.full(runs, np.nan), np.full(runs, np.nan)
+    planned, random, in_region = np.full(runs, np.nan), np.full(runs, np.nan), np.full(runs, np.nan)
     for r, seed in enumerate(robot_seeds(study.seed, runs)):
         planned[r] = study.accuracy(rows, seed)
         random[r] = study.accuracy(study.random(poses, r), seed)
+        if study.region is not None:
+            in_region[r] = study.accuracy(study.random_in_region(poses, r), seed)
         if progress is not None:
             progress(r + 1, runs)
-    return {"planned": planned, "random": random, "linearised_planned": study.linearised(rows),
+    return {"planned": planned, "random": random, "random_in_region": in_region if study.region is not None else None,
+            "linearised_planned": study.linearised(rows),
             "linearised_random": float(np.median([study.linearised(study.random(poses, r)) for r in range(runs)]))}
 
 
@@ -162,6 +184,7 @@ def _summary(loaded, study: PlanStudy, selection, covariance, readings, accuracy
         "condition_number": ps.condition_number(info.blocks, selection.rows),
         "log_det_information": float(np.linalg.slogdet(selection.information)[1]),
         "parameters": parameters,
+        "region": study.region.describe() if study.region is not None else None,
         "held_out_accuracy": None,
     }
     if accuracy is not None:
@@ -171,6 +194,7 @@ def _summary(loaded, study: PlanStudy, selection, covariance, readings, accuracy
             "robots": len(accuracy["planned"]),
             "planned": _stats(scale * accuracy["planned"]),
             "random_same_count": _stats(scale * accuracy["random"]),
+            "random_in_region_same_count": _stats(scale * accuracy["random_in_region"]) if accuracy["random_in_region"] is not None else None,
             "linearised_planned": scale * accuracy["linearised_planned"],
             "linearised_random_median": scale * accuracy["linearised_random"],
         }
@@ -183,11 +207,18 @@ def _stats(values: np.ndarray) -> dict:
             "not_identified": int(len(values) - len(ok))}
 
 
+def _region_line(region: dict) -> str:
+    low, high = (", ".join(f"{v:.0f}" for v in region[k]) for k in ("low", "high"))
+    return (f"  working region: {region['name']}, {region['point']} in the box ({low}) .. ({high}) mm of the robot base frame, "
+            f"orientation {region['orientation']}; held-out poses and W there, candidates over the whole joint range")
+
+
 def _text(summary: dict) -> str:
     c, p = summary["candidates"], summary["poses"]
     lines = [f"planned {p['planned']} poses" + (f" after the {p['existing']} of {p['extended']}" if p["extended"] else "")
              + f" from {c['drawn']} candidates: {c['readable']} readable ({_dropped(c['dropped'])})",
              f"  criterion: {summary['criterion']}",
+             *([_region_line(summary["region"])] if summary["region"] else []),
              f"  {p['readings']} readings, {summary['base_parameters']} base parameters, "
              f"condition number of the column-scaled base Jacobian {summary['condition_number']:.3g}",
              "  predicted 1-sigma uncertainty of the base parameters (noise only):"]
@@ -203,7 +234,12 @@ def _text(summary: dict) -> str:
     lines += [f"  predicted held-out accuracy, {held['definition']}:",
               f"    planned {p['planned']}:  {fmt(planned)} (mean over {held['robots']} simulated robots; linearised, noise only: {held['linearised_planned']:.4g} {unit})",
               f"    random {p['planned']}:   {fmt(random)} (the same robots; linearised: {held['linearised_random_median']:.4g} {unit}, median of the random designs)"]
-    for name, s in (("planned", planned), ("random", random)):
+    in_region = held.get("random_in_region_same_count")
+    if in_region is not None:
+        lines.append(f"    random {p['planned']} in the region (any orientation): {fmt(in_region)} (the same robots)")
+    for name, s in (("planned", planned), ("random", random), ("random in the region", in_region)):
+        if s is None:
+            continue
         if s["not_identified"]:
             lines.append(f"    {s['not_identified']} of {held['robots']} robots could not be identified from the {name} poses")
     return "\n".join(lines)

@@ -8,7 +8,8 @@ position reading it has). Orientation and angle readings do not enter it, except
 angles only (a theodolite): there it is the RMS error of the predicted angles (azimuth, elevation), in rad. The held-out poses are a second,
 independent draw of candidates (the same distribution as the candidates the plan was chosen from: uniform in
 the joint limits and readable, or random points on the shells), so the figure is the accuracy a user gets
-over the space the candidates cover.
+over the space the candidates cover. With a working region (``PlanStudy(region=...)``, armcal plan --region) the
+held-out poses are random poses in that region instead (procedures/regions.py; docs/plan.md).
 
 Robot r of a study is drawn from the r-th child of SeedSequence(seed) by the spec's manufacturing-error
 model (simulate/truth.py, Stone 7.1-7.8; never the fitted model), measured at the plan's poses with the
@@ -26,7 +27,7 @@ error left unidentified, no nonlinearity); the Monte Carlo includes both.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -38,19 +39,28 @@ from armcal.errors import UserError
 from armcal.evaluate.montecarlo import identify_simulated, robot_seeds
 from armcal.identify.problem import build_problem
 from armcal.procedures import pose_selection as ps
+from armcal.procedures.regions import Region, region_candidates
 from armcal.simulate.campaign import CampaignSimulator
 from armcal.spec.model import Spec
 from armcal.units import from_internal
 
 HELD_OUT = 300  # candidate draws for the held-out poses
+REGION_POOL = 1000  # random poses in the working region: the weight W of the I-criterion and the random designs there
 
 
 class PlanStudy:
-    """A spec's candidates, their information, held-out poses and simulator: plans chosen and scored."""
+    """A spec's candidates, their information, held-out poses and simulator: plans chosen and scored.
+
+    With a working ``region`` (procedures/regions.py) the held-out poses are random poses in the region (at the
+    task's orientation where the region is ``oriented``), the I-criterion's weight W is the average position
+    information of another draw of them (``region_pool`` poses, never the held-out ones), and ``random_in_region``
+    draws random designs from ``region_pool`` poses whose point lies in the region at any orientation (at the task's
+    orientation alone the base set is not identifiable); plans are still chosen from the candidates over the
+    whole joint range."""
 
     def __init__(self, spec: Spec, spec_dir: Path, candidates: int, seed: int = 0, existing: ps.Candidates | None = None,
-                 criterion: str = "D"):
-        self.spec, self.criterion = spec, criterion
+                 criterion: str = "D", region: Region | None = None, region_pool: int = REGION_POOL):
+        self.spec, self.criterion, self.region = spec, criterion, region
         self.simulator = CampaignSimulator(spec, spec_dir, validation=False, calibration=False)
         self.kinematics = self.simulator.kinematics
         self.device = device_model(spec, spec.fit.sonic_readings)
@@ -62,9 +72,27 @@ class PlanStudy:
         fixed = ps.fixed_readings(spec, self.kinematics)  # first: never exchanged, never written as a pose
         self.existing = sum(len(c) for c in (fixed, existing) if c is not None)
         self.candidates = ps.Candidates.joined([fixed, existing, fresh])
-        self.information = ps.information(spec, self.kinematics, self.device, self.candidates)
-        self.weight = self.information.prediction_weight()
-        held = ps.candidate_poses(spec, self.kinematics, self.device, HELD_OUT, seed + 1)
+        weighted = None  # an oriented region's poses for W (its random designs take any orientation)
+        if region is None:
+            self.region_pool, held = None, ps.candidate_poses(spec, self.kinematics, self.device, HELD_OUT, seed + 1)
+        else:
+            any_orientation = replace(region, oriented=False)
+            self.region_pool = region_candidates(spec, self.kinematics, self.device, any_orientation, region_pool, seed + 2)
+            weighted = region_candidates(spec, self.kinematics, self.device, region, region_pool, seed + 3) if region.oriented else None
+            held = region_candidates(spec, self.kinematics, self.device, region, HELD_OUT, seed + 1)
+            found = [len(c) for c in (self.region_pool, weighted if weighted is not None else self.region_pool, held)]
+            if any(f < n for f, n in zip(found, (region_pool, region_pool, HELD_OUT))):
+                raise UserError(f"too few random poses the instrument reads lie in the working region {region.name}: "
+                                f"{sum(found)} of {2 * region_pool + HELD_OUT} found")
+        self.designs = ps.Candidates.joined([self.candidates, self.region_pool])  # the rows a design may use
+        everything = ps.information(spec, self.kinematics, self.device, ps.Candidates.joined([self.designs, weighted]))
+        self.information = everything.subset(slice(0, len(self.candidates)))
+        if region is None:  # W over the poses the held-out accuracy is about: the candidates, the region's pool, the oriented poses
+            weighted_rows = slice(0, len(self.candidates))
+        else:
+            weighted_rows = slice(len(self.candidates), len(self.designs)) if weighted is None else slice(len(self.designs), None)
+        self.weight = everything.subset(weighted_rows).prediction_weight()
+        self._blocks = everything.blocks[: len(self.designs)]
         self.held_out = held.plan(range(len(held)))
         self.effects = EffectSet(tuple(from_spec(e) for e in spec.effects))
         self.seed = seed
@@ -83,15 +111,22 @@ class PlanStudy:
         rng = np.random.default_rng([self.seed, robot, count, 7])
         return ps.random_rows(len(self.candidates), count, self.existing, rng)
 
+    def random_in_region(self, count: int, robot: int) -> np.ndarray:
+        """Robot ``robot``'s random design in the working region: the existing poses and ``count`` poses of the
+        region's pool drawn at random (rows of ``designs``)."""
+        rng = np.random.default_rng([self.seed, robot, count, 11])
+        pool = len(self.designs) - len(self.candidates)
+        return np.r_[np.arange(self.existing), len(self.candidates) + rng.choice(pool, size=count, replace=False)].astype(int)
+
     def linearised(self, rows) -> float:
         """sqrt(trace(W M^-1)), mm: the noise's share of the held-out accuracy (inf where M is singular)."""
-        covariance = ps.Selection(np.asarray(rows), ps.design_information(self.information.blocks, rows), self.criterion).covariance()
+        covariance = ps.Selection(np.asarray(rows), ps.design_information(self._blocks, rows), self.criterion).covariance()
         return float(np.sqrt(np.trace(self.weight @ covariance))) if np.isfinite(covariance).all() else float("inf")
 
     def accuracy(self, rows, seed: np.random.SeedSequence) -> float:
         """Held-out accuracy (mm; rad for angles-only instruments; module doc) of the robot of ``seed`` calibrated at the poses ``rows``; NaN where
         the design has too few readings to identify the model."""
-        plans = {"calibration": self.candidates.plan(rows), "validation": self.held_out}
+        plans = {"calibration": self.designs.plan(rows), "validation": self.held_out}
         campaign = self.simulator.run(seed, plans, exact=("validation",))
         try:
             result = identify_simulated(self.spec, self.kinematics, self.device, campaign.calibration)
@@ -115,24 +150,29 @@ class AccuracyCurve:
     planned: dict[str, np.ndarray]  # criterion (D, I) -> (runs, k)
     random: dict[int, np.ndarray]  # factor f -> (runs, k): f x count random poses (NaN where the pool is too small)
     linearised: dict[str, np.ndarray]  # criterion -> (k,) sqrt(trace W M^-1) of the planned designs, mm
+    random_in_region: dict[int, np.ndarray] = field(default_factory=dict)  # factor f -> (runs, k): f x count random poses in the working region
 
     def values(self) -> dict:
         """Plain values (JSON, report/plan_plots.accuracy_plot): the counts and each design's mean over the robots."""
         mean = lambda a: [float(v) if np.isfinite(v) else None for v in a.mean(axis=0)]  # noqa: E731
         return {"counts": self.counts.tolist(), "planned": {c: mean(a) for c, a in self.planned.items()},
                 "random": {str(f): mean(a) for f, a in self.random.items()},
+                "random_in_region": {str(f): mean(a) for f, a in self.random_in_region.items()},
                 "linearised": {c: a.tolist() for c, a in self.linearised.items()}}
 
 
-def accuracy_curve(study: PlanStudy, counts, runs: int, factors=(1,), criteria=("D",), progress: Callable[[int, int], None] | None = None) -> AccuracyCurve:
-    """Planned designs of each count (by each criterion) and random ones of ``factors`` x count poses, scored on
-    ``runs`` robots (the same robots for every design): arrays for a plot of accuracy against the number of
-    poses. The mean over the robots (axis 0) is the figure; NaN marks a design too small to identify."""
+def accuracy_curve(study: PlanStudy, counts, runs: int, factors=(1,), criteria=("D",), progress: Callable[[int, int], None] | None = None,
+                   region_factors=()) -> AccuracyCurve:
+    """Planned designs of each count (by each criterion) and random ones of ``factors`` x count poses (over the whole
+    joint range; of ``region_factors`` x count in the study's working region), scored on ``runs`` robots (the same
+    robots for every design): arrays for a plot of accuracy against the number of poses. The mean over the robots
+    (axis 0) is the figure; NaN marks a design too small to identify."""
     counts = np.asarray(counts, dtype=int)
     seeds = robot_seeds(study.seed, runs)
-    total, done = len(counts) * (len(criteria) + len(factors)), 0
+    total, done = len(counts) * (len(criteria) + len(factors) + len(region_factors)), 0
     planned = {c: np.full((runs, len(counts)), np.nan) for c in criteria}
     random = {f: np.full((runs, len(counts)), np.nan) for f in factors}
+    in_region = {f: np.full((runs, len(counts)), np.nan) for f in region_factors}
     linearised = {c: np.zeros(len(counts)) for c in criteria}
     for j, count in enumerate(counts):
         for criterion in criteria:
@@ -148,7 +188,12 @@ def accuracy_curve(study: PlanStudy, counts, runs: int, factors=(1,), criteria=(
             done += 1
             if progress is not None:
                 progress(done, total)
-    return AccuracyCurve(counts, planned, random, linearised)
+        for f in region_factors:
+            in_region[f][:, j] = [study.accuracy(study.random_in_region(int(f * count), r), seed) for r, seed in enumerate(seeds)]
+            done += 1
+            if progress is not None:
+                progress(done, total)
+    return AccuracyCurve(counts, planned, random, linearised, in_region)
 
 
 def accuracy_label(spec: Spec, study: PlanStudy) -> tuple[str, str, float]:
@@ -157,6 +202,7 @@ def accuracy_label(spec: Spec, study: PlanStudy) -> tuple[str, str, float]:
         spec.device.type, "3D position error of the targets (instrument frame)"
     )
     unit, scale = ("mm", 1.0) if study.information.metric == "length" else ("arcsec", from_internal(1.0, "angle", "arcsec"))
-    definition = (f"RMS {metric} at {HELD_OUT} independent held-out poses: the model calibrated from the plan's "
+    where = "" if study.region is None else f" in the working region ({study.region.name}, {'the task' if study.region.oriented else 'any'} orientation)"
+    definition = (f"RMS {metric} at {HELD_OUT} independent held-out poses{where}: the model calibrated from the plan's "
                   "noisy readings against the true robot's noise-free readings")
     return definition, unit, scale

@@ -181,6 +181,11 @@ class Information:
     def base(self) -> tuple[str, ...]:
         return self.identifiability.base
 
+    def subset(self, rows: slice) -> "Information":
+        """The information of the candidates ``rows`` (on the same base set)."""
+        samples = None if self.samples is None else self.samples[rows]
+        return Information(self.blocks[rows], self.positions[rows], self.identifiability, self.kinds, self.metric, samples)
+
     def prediction_weight(self) -> np.ndarray:
         """W (p, p): the average over the candidates' samples of their metric rows' G^T G, so that trace(W M^-1) is
         the mean squared error of a held-out sample (a target's 3D position, a bar length, a sighting's angles)."""

@@ -1,0 +1,56 @@
+"""Issue 17's claim where the robot works (slow: ~10 min): benchmarks/plan_in_region.py's study, ISO 9283 cube.
+
+UR10 and KR 6 R900 with a tracker, N = 15, 30, 60, held-out poses in the ISO 9283 cube at the task's orientation
+and at any orientation (docs/plan.md has the table and the definitions). What holds: the I-optimal plan for the
+region beats N random poses (over the whole joint range and in the region) in every case, and the region-blind
+D-optimal plan at the task's orientation (at any orientation the two are within a few per cent); for the KR 6
+R900's 192 mm cube at the task's orientation it is worth 2.5 to 2.8 times as many random poses and 0.61 times the
+D-plan's error. What the issue hoped for and the study does not show: N planned poses as accurate as 3N random
+ones (a strict expected failure: no row of twelve reaches it, the nearest 1.05 +- 0.04). Everything is seeded: the
+numbers are the benchmark's and docs/plan.md's (100 robots).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+
+import pytest
+from conftest import ROOT
+
+pytestmark = pytest.mark.slow
+RUNS = 100
+
+
+@pytest.fixture(scope="module")
+def table():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    spec = importlib.util.spec_from_file_location("plan_in_region", ROOT / "benchmarks" / "plan_in_region.py")
+    study = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(study)
+    return study, study.run(RUNS)
+
+
+def test_the_region_plan_beats_the_blind_plan_and_as_many_random_poses(table):
+    _, rows = table
+    assert len(rows) == 12
+    for row in rows:
+        assert row["I"] < min(row["a1"], row["b1"]), row  # measured ratios 0.46 (KR 6, task, N = 15) to 0.95
+        assert row["I"] < row["D"] * 1.05, row  # I / D 1.02 at most; 0.61-0.89 at the task orientation
+        if row["case"].startswith("KR 6") and "task" in row["case"]:
+            assert row["I"] < 0.7 * row["D"], row  # measured 0.61-0.62
+
+
+def test_for_a_small_cube_at_the_task_orientation_a_plan_is_worth_more_than_twice_as_many_random_poses(table):
+    study, rows = table
+    for row in rows:
+        if row["case"].startswith("KR 6") and "task" in row["case"]:
+            assert study.worth(row["I"], row["a1"], row["a3"]) > 2.3, row  # measured 2.69 to 2.75
+            assert study.worth(row["I"], row["b1"], row["b3"]) > 2.3, row  # measured 2.46 to 2.79
+
+
+@pytest.mark.xfail(strict=True, reason="measured: N poses planned for the region are worth 1.1-2.8 N random ones; I / random 3N 1.05-1.71 (docs/plan.md)")
+def test_planned_poses_reach_three_times_as_many_random_poses(table):
+    _, rows = table
+    for row in rows:
+        assert row["I"] <= row["a3"], row

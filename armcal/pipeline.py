@@ -17,7 +17,7 @@ from armcal.evaluate.summary import summarize
 from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import draw_plots
 from armcal.output_set import output_set, run_id, stamp_svg
-from armcal.report.render import certificate_files, read_earlier
+from armcal.report.render import certificate_files, check_templates, read_earlier, template_folders
 from armcal.results.model import Results
 from armcal.results.calibrated import calibrated_text
 from armcal.results.campaign import campaign
@@ -54,6 +54,7 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: 
     earlier = read_earlier(history, spec.robot.serial, str(loaded.path))
     inputs = [loaded.path, *(folder / f for f in (spec.data.calibration, spec.data.validation) if f), *(Path(source) for source, _ in earlier)]
     user_templates = folder / spec.report.template if spec.report.template else None
+    check_templates(template_folders(user_templates))  # before any work: a template the run could not use is said first
     with output_set(out_dir, inputs + ([user_templates] if user_templates else []), force) as publish:
         return _run(loaded, inputs, user_templates, Path(out_dir), pdf, publish, earlier)
 

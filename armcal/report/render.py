@@ -214,6 +214,33 @@ def template_error(exc: BaseException, served: list[str]) -> str:
     return f"{where}: {message}" if where else message
 
 
+NAMING = (jinja2.nodes.Include, jinja2.nodes.Import, jinja2.nodes.FromImport, jinja2.nodes.Extends)
+
+
+def check_templates(folders: list[Path]) -> None:
+    """Load and parse the certificate's template and every template it names by a constant (include, import,
+    extends), as rendering will, before a run's work starts: a template the run could not use is refused first,
+    as a UserError naming the file and line (render_html still guards what only rendering finds)."""
+    environment = CertificateEnvironment(folders)
+    pending, seen = [(TEMPLATE, "")], set()
+    while pending:
+        name, where = pending.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        try:
+            source, filename, _ = environment.loader.get_source(environment, name)
+            tree = environment.parse(source, name, filename)
+        except jinja2.TemplateSyntaxError as exc:
+            raise UserError(template_error(exc, [])) from exc
+        except (UserError, jinja2.TemplateNotFound) as exc:
+            message = template_error(exc, []) if isinstance(exc, jinja2.TemplateNotFound) else str(exc)
+            raise UserError(f"{where}: {message}" if where else message) from exc
+        for node in tree.find_all(NAMING):
+            if isinstance(node.template, jinja2.nodes.Const) and isinstance(node.template.value, str):
+                pending.append((node.template.value, f"{filename}:{node.lineno}"))
+
+
 def render_html(context: dict, folders: list[Path]) -> str:
     """The certificate's HTML; any error in a template becomes a UserError naming its file and line."""
     environment = CertificateEnvironment(folders)

@@ -11,7 +11,7 @@ from conftest import ROOT, SPECS, random_configurations
 from round_trip import round_trip
 
 from armcal.identify.identifiability import RANK_TOLERANCE, analyse, extend
-from armcal.identify.lm import levenberg_marquardt
+from armcal.identify.lm import solve
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.params import ParameterInfo, ParameterSet
 from armcal.spec import load_spec
@@ -106,10 +106,10 @@ def _rosenbrock(x):
 
 
 def test_lm_stops_at_the_minimum_on_a_scale_free_test_and_not_at_the_limit():
-    result = levenberg_marquardt(_rosenbrock, np.array([-1.2, 1.0]), max_iterations=200)
+    result = solve(_rosenbrock, np.array([-1.2, 1.0]), max_iterations=200)[0]
     assert result.converged and result.iterations < 200, result
     assert np.allclose(result.x, [1.0, 1.0], atol=1e-8)
-    stopped = levenberg_marquardt(_rosenbrock, np.array([-1.2, 1.0]), max_iterations=2)
+    stopped = solve(_rosenbrock, np.array([-1.2, 1.0]), max_iterations=2)[0]
     assert not stopped.converged and "iteration limit (2)" in stopped.reason
 
 
@@ -124,7 +124,7 @@ def test_lm_stopping_does_not_depend_on_the_noise_scale():
             e = np.exp(-p[1] * x)
             return scale * (p[0] * e - y), scale * np.column_stack([e, -p[0] * x * e])
 
-        runs.append(levenberg_marquardt(residuals, np.array([1.0, 0.5])))
+        runs.append(solve(residuals, np.array([1.0, 0.5]))[0])
     assert all(r.converged for r in runs)
     assert len({r.iterations for r in runs}) == 1
     assert np.allclose(runs[0].x, runs[2].x, rtol=1e-9)

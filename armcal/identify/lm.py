@@ -61,19 +61,6 @@ def scaled_gradient(g: np.ndarray, A: np.ndarray, cost: float) -> float:
     return float(np.max(cosines)) if len(cosines) else 0.0
 
 
-def levenberg_marquardt(
-    residuals: Callable[..., tuple[np.ndarray, np.ndarray]],
-    x0: np.ndarray,
-    lower: np.ndarray | None = None,
-    upper: np.ndarray | None = None,
-    loss: str = "linear",
-    loss_scale: float = 3.0,
-    max_iterations: int = 100,
-) -> LMResult:
-    """Minimise 1/2 sum w(r) r(x)^2; ``residuals(x)`` returns (r, J)."""
-    return solve(residuals, x0, lower, upper, loss, loss_scale, max_iterations)[0]
-
-
 def solve(
     residuals: Callable[..., tuple[np.ndarray, np.ndarray]],
     x0: np.ndarray,
@@ -85,7 +72,8 @@ def solve(
     initial: tuple[np.ndarray, np.ndarray] | None = None,
     buffered: bool = False,
 ) -> tuple[LMResult, np.ndarray, np.ndarray]:
-    """levenberg_marquardt, with (r, J) at the solution; ``initial``: (r, J) at x0 when the caller has them.
+    """Minimise 1/2 sum w(r) r(x)^2 (``residuals(x)`` returns (r, J)): the result, with (r, J) at the solution;
+    ``initial``: (r, J) at x0 when the caller has them.
 
     ``buffered``: ``residuals(x, out)`` writes J into ``out`` (None: a fresh array), a Jacobian a rejected trial
     left; so the fit holds two Jacobians at most, the accepted one and the trial's, and none is copied."""

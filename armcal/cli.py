@@ -285,9 +285,10 @@ def import_ipa(
     if target not in loaded.spec.robot.targets:
         raise UserError(f"{spec}: the robot has no target '{target}'")
     device = loaded.spec.device
-    if device.type != "tracker" or target not in device.targets:
-        raise UserError(f"{spec}: the ipa-robot-accuracy files are laser-tracker readings of one target; the spec's device must be a tracker measuring '{target}'")
-    measurements = read_ipa(source, target, device.orientation)
+    if not device.reads_positions or target not in device.seen_targets():
+        raise UserError(f"{spec}: the ipa-robot-accuracy files are laser-tracker readings of one target; the spec's device must "
+                        f"be a tracker measuring '{target}'")
+    measurements = read_ipa(source, target, device.sees_orientation())
     write_measurements(out, measurements, loaded.spec)
     typer.echo(f"wrote {out}: {len(measurements)} samples")
 
@@ -303,7 +304,8 @@ def new(
 ) -> None:
     """Write a commented starting spec for a library robot and a measuring device (docs/robots.md)."""
     from armcal.fileio import refuse_replacing, write_text_atomic
-    from armcal.new_spec import DEVICES, default_out, new_spec_text
+    from armcal.devices.registry import INSTRUMENTS
+    from armcal.new_spec import default_out, new_spec_text
     from armcal.robot_library import library_robot, names
 
     if list_robots:
@@ -312,8 +314,8 @@ def new(
         return
     if robot is None or device is None:
         raise UserError("give --robot NAME and --device TYPE (or --list for the robots)")
-    if device not in DEVICES:
-        raise UserError(f"unknown device '{device}'; choose one of {', '.join(DEVICES)}")
+    if device not in INSTRUMENTS:
+        raise UserError(f"unknown device '{device}'; choose one of {', '.join(INSTRUMENTS)}")
     entry = library_robot(robot)
     path = out or default_out(entry.name, device)
     refuse_replacing([path], [], force)

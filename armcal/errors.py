@@ -11,6 +11,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 
+def either(names: list[str]) -> str:
+    """a, b or c."""
+    return " or ".join(filter(None, (", ".join(names[:-1]), names[-1])))
+
+
 def with_article(word: str) -> str:
     """'an angle', 'a length': ``word`` with the indefinite article a message needs."""
     return f"{'an' if word[:1].lower() in 'aeiou' else 'a'} {word}"

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from armcal.dataio.reader import data_text, read_measurements
-from armcal.devices import device_model
+from armcal.devices import device_model, readings_mode
 from armcal.errors import Issue, SpecError, UserError
 from armcal.diagnose.stage import identify_and_diagnose
 from armcal.evaluate.evidence import evidence
@@ -65,7 +65,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     folder = loaded.path.parent
     calibration_path = folder / spec.data.calibration
     kinematics = compile_robot(spec.robot)
-    device = device_model(spec, _sonic_mode(spec, calibration_path))
+    device = fitted_device(spec, calibration_path)
     raw = read_measurements(calibration_path, spec)
     calibration = device.prepare(raw)
     validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
@@ -75,7 +75,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     truth = find_truth(calibration_path)
     identifier = run_id(inputs + ([calibration_path.parent / "truth.json"] if truth else []))
     tasks = evaluation_tasks(spec, kinematics, calibrated, truth)
-    found = evidence(loaded, kinematics, calibrated, calibration)
+    found = evidence(loaded, kinematics, device, calibrated, calibration)
     plots = {name: stamp_svg(svg, identifier) for name, svg in draw_plots(found).items()}
     validation_path = folder / spec.data.validation if spec.data.validation else None
     simulated = (truth is not None, validation_path is not None and find_truth(validation_path) is not None)
@@ -111,10 +111,8 @@ def check_readable(device, data) -> None:
         raise SpecError([Issue(data.source, line, None, column, message) for line, column, message in problems[:20]])
 
 
-def _sonic_mode(spec, calibration_path: Path) -> str:
-    """Fit triangulated points when that is all the data file has, else as the spec says."""
-    if spec.device.type != "sonic_digitizer":
-        return spec.fit.sonic_readings
+def fitted_device(spec, calibration_path: Path):
+    """The spec's instrument as it fits the calibration file's readings (a sonic digitizer's triangulated points
+    when that is all the file has, else as the spec says)."""
     header = [h.strip() for h in data_text(calibration_path).split("\n", 1)[0].split(",")]
-    return "points" if "x" in header and not any(h.startswith("s_") for h in header) else spec.fit.sonic_readings
-
+    return device_model(spec, readings_mode(spec, header, spec.fit.sonic_readings))

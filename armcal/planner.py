@@ -19,7 +19,8 @@ import numpy as np
 
 from armcal import __version__
 from armcal.dataio.reader import read_pose_file
-from armcal.errors import UserError
+from armcal.devices.registry import INSTRUMENTS
+from armcal.errors import UserError, either, with_article
 from armcal.evaluate.montecarlo import robot_seeds
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_label
 from armcal.fileio import refuse_replacing
@@ -33,7 +34,6 @@ MAX_POSES = 100_000
 MAX_CANDIDATES = 200_000
 DEFAULT_CANDIDATES = 2000
 DEFAULT_RUNS = 50
-DEVICES = ("tracker", "theodolite", "ballbar")
 ORIENTATIONS = ("task", "any")
 CRITERIA = {
     "D": "D-optimal: maximum log det of the information matrix M = J^T J on the base parameters (J weighted by 1/sigma)",
@@ -79,12 +79,16 @@ def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | No
     refuse_replacing([out, side_file(out)], [spec_path, *([extend] if extend else [])], force)
     loaded = load_spec(spec_path)
     spec = loaded.spec
-    if spec.device.type not in DEVICES:
-        raise UserError(f"{spec_path}: armcal plan chooses poses for a {', '.join(DEVICES[:-1])} or {DEVICES[-1]}, not a {spec.device.type}")
-    if region is not None and spec.device.type == "ballbar":
-        raise UserError(f"--region {region}: a ball-bar reads bar lengths on its shells, not positions in a working region; plan without --region")
+    if "poses" not in spec.device.procedures:
+        takers = [name for name, model in INSTRUMENTS.items() if "poses" in model.section.procedures]
+        raise UserError(f"{spec_path}: armcal plan chooses poses for {with_article(either(takers))}, not a {spec.device.type}")
+    model = INSTRUMENTS[spec.device.type]
+    keyed = model.keyed_poses
+    if region is not None and keyed:
+        raise UserError(f"--region {region}: a {spec.device.type} reads each pose on its own {' and '.join(model.key_columns)}, "
+                        "not target positions in a working region; plan without --region")
     seed = (spec.simulate.seed if spec.simulate else 0) if seed is None else seed
-    say(f"candidates: {candidates} random poses{' on the shells (inverse kinematics)' if spec.device.type == 'ballbar' else ''} ...")
+    say(f"candidates: {candidates} random poses{' on the shells (inverse kinematics)' if keyed else ''} ...")
     existing_q, existing_keys, existing = _existing(spec, extend)
     where = None
     if region is not None:
@@ -122,11 +126,11 @@ def _existing(spec, extend: Path | None) -> tuple[np.ndarray, tuple | None, ps.C
 
     Q, keys = read_pose_file(extend, spec)
     kinematics, device = compile_robot(spec.robot), device_model(spec)
-    if spec.device.type == "ballbar":
+    if device.keyed_poses:
         if keys is None:
-            raise UserError(f"{extend}: a ball-bar plan needs pivot and sphere columns")
+            raise UserError(f"{extend}: a {device.type} plan needs its {' and '.join(device.key_columns)} columns")
         return Q, keys, ps.bar_candidates(Q, keys, kinematics, device)
-    return Q, None, ps.keyed_candidates(Q, spec, kinematics, device)
+    return Q, None, ps.keyed_candidates(Q, kinematics, device)
 
 
 def _dropped(dropped: dict[str, int]) -> str:
@@ -153,14 +157,15 @@ def _monte_carlo(study: PlanStudy, rows: np.ndarray, poses: int, runs: int, prog
 def _csv(spec, existing: tuple[np.ndarray, tuple | None], candidates: ps.Candidates, rows: np.ndarray) -> str:
     """q1..qN in the spec's units (and a ball-bar's pivot, sphere, extension): the existing poses, then the new."""
     kinds = ["angle" if j.type == "revolute" else "length" for j in spec.robot.joints]
-    bar = spec.device.type == "ballbar"
-    header = [f"q{i}" for i in range(1, spec.robot.dof + 1)] + (["pivot", "sphere", "extension"] if bar else [])
+    model = INSTRUMENTS[spec.device.type]
+    key_columns = model.key_columns + model.optional_key_columns if model.keyed_poses else ()
+    header = [f"q{i}" for i in range(1, spec.robot.dof + 1)] + list(key_columns)
     Q = [*existing[0], *candidates.q[rows]]
     keys = [*(existing[1] or [None] * len(existing[0])), *(candidates.keys[r][0] for r in rows)]
     lines = [",".join(header)]
     for q, key in zip(Q, keys):
         fields = [f"{from_internal(v, k, getattr(spec.robot.units, k)):.10g}" for v, k in zip(q, kinds)]
-        lines.append(",".join(fields + ([key[0], key[1], key[2] or ""] if bar else [])))
+        lines.append(",".join(fields + [key[i] or "" for i in range(len(key_columns))]))
     return "\n".join(lines) + "\n"
 
 

@@ -298,13 +298,10 @@ def simulation_summary(loaded: LoadedSpec, campaign) -> str:
             reasons.setdefault(_reason_of(label), DROP_REASONS.get(_reason_of(label)))
         if lost:
             unit = spec.robot.units.length
-            travel = from_internal(spec.device.travel, "length", unit) if spec.device.type == "ballbar" else 0.0
-            what = (f"outside the bar's travel (device.travel {travel:g} {unit}: within {travel / 2:g} of mid-travel)"
-                    if spec.device.type == "ballbar" else "outside the instrument's range")
+            what, reason, keys = spec.device.out_of_range(lambda v: f"{from_internal(v, 'length', unit):g} {unit}")
             lines.append(f"    lost: {sum(lost.values())} readings {what} on the simulated robot, planned within it on the nominal "
                          f"model: the robot's errors moved them out ({', '.join(f'{k} {n}' for k, n in lost.items())})")
-            reasons.setdefault("bar travel" if spec.device.type == "ballbar" else "instrument range",
-                               DROP_REASONS["bar travel"] if spec.device.type == "ballbar" else "the device's range keys")
+            reasons.setdefault(reason, keys)
     if reasons:
         lines.append("  look at: " + "; ".join(f"{why} -> {keys}" for why, keys in reasons.items() if keys))
     return "\n".join(lines)

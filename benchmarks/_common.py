@@ -20,7 +20,7 @@ import armcal  # noqa: E402, F401  (first: its single-threaded BLAS setting then
 import numpy as np  # noqa: E402
 from scipy.optimize import least_squares  # noqa: E402
 
-from armcal.devices.sound import ROD_NEAR  # noqa: E402
+from armcal.devices.sonic import ROD_NEAR  # noqa: E402
 from armcal.effects.model import DEFAULT_LINK_MASS, GRAVITY  # noqa: E402
 
 REPEATS = 15

@@ -65,8 +65,7 @@ def truth(s: Setup, rng) -> np.ndarray:
     kinds = np.array([e.kind for e in parameters.entries])
     theta[s.base] += rng.normal(size=len(s.base)) * np.array([PERTURBATION[k] for k in kinds[s.base]])
     n_robot = len(s.kinematics.parameters)
-    if hasattr(s.device, "with_calibrated_bar"):  # a true scale bar has its calibrated length
-        theta[n_robot:] = s.device.with_calibrated_bar(theta[n_robot:])
+    theta[n_robot:] = s.device.true_parameters(theta[n_robot:])  # e.g. a true scale bar has its calibrated length
     return theta
 
 

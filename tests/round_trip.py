@@ -5,10 +5,9 @@ import pytest
 from ruamel.yaml import YAML
 
 from armcal.dataio.reader import read_measurements
-from armcal.devices import device_model
 from armcal.diagnose.stage import calibration_problem, identify_and_diagnose
 from armcal.kinematics.compiler import compile_robot
-from armcal.pipeline import _sonic_mode, run
+from armcal.pipeline import fitted_device, run
 from armcal.spec import load_spec
 
 
@@ -17,7 +16,7 @@ def _stages(spec_path):
     spec = load_spec(spec_path).spec
     folder = spec_path.parent
     kinematics = compile_robot(spec.robot)
-    device = device_model(spec, _sonic_mode(spec, folder / spec.data.calibration))
+    device = fitted_device(spec, folder / spec.data.calibration)
     raw = read_measurements(folder / spec.data.calibration, spec)
     validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
     return spec, kinematics, device, raw, validation

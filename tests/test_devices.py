@@ -8,7 +8,7 @@ from conftest import SPECS, random_configurations
 
 from armcal.devices import device_model
 from armcal.devices.sonic import SonicModel, microphone_distances, triangulate
-from armcal.devices.sound import compensate, raw_range, rod_ratio, speed_of_sound, true_range, vertical
+from armcal.devices.sonic import compensate, raw_range, rod_ratio, speed_of_sound, true_range, vertical
 from armcal.kinematics.compiler import compile_robot
 from armcal.spec import load_spec
 

@@ -24,7 +24,7 @@ from armcal.identify import compiled as cache
 from armcal.identify.problem import _value_and_jacobian
 from armcal.effects.model import EffectSet
 from armcal.kinematics.compiler import compile_robot
-from armcal.pipeline import _sonic_mode
+from armcal.pipeline import fitted_device
 from armcal.spec import load_spec
 
 EXAMPLES = ("goswami_ballbar", "hidden_harmonic", "puma560_sonic", "theodolite")
@@ -54,7 +54,7 @@ def problem_of(spec_path):
     """The calibration problem `armcal run` fits first, and its start."""
     spec = load_spec(spec_path).spec
     calibration = spec_path.parent / spec.data.calibration
-    kinematics, device = compile_robot(spec.robot), device_model(spec, _sonic_mode(spec, calibration))
+    kinematics, device = compile_robot(spec.robot), fitted_device(spec, calibration)
     return calibration_problem(spec, kinematics, device, device.prepare(read_measurements(calibration, spec)))
 
 

@@ -141,7 +141,7 @@ def test_ballbar_drops_and_lost_readings_counted_with_reasons(tmp_path):
     assert re.search(r"calibration: \d+ samples of 144 planned; \d+ planned poses dropped; \d+ readings lost on the simulated robot", out), out
     assert re.search(r"c1-s1: \d+ (beyond the arm's reach|pivot out of reach) \(lat 20: lon 0", out), out
     assert re.search(r"joint limit \(j3\)", out), out
-    assert "readings outside the bar's travel (device.travel 2 mm: within 1 of mid-travel)" in out
+    assert "readings outside the bar's travel (device.travel 2 mm: within 1 mm of mid-travel)" in out
     assert "look at: " in out and "robot.joints[].limits" in out and "device.travel" in out
 
 

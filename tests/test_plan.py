@@ -44,7 +44,7 @@ def puma(tmp_path_factory):
     loaded = load_spec(path)
     kinematics, device = compile_robot(loaded.spec.robot), device_model(loaded.spec)
     Q = np.radians(sim.sample_configurations("puma560", 400, np.random.default_rng(5)))
-    candidates = ps.keyed_candidates(Q, loaded.spec, kinematics, device)
+    candidates = ps.keyed_candidates(Q, kinematics, device)
     return loaded, candidates, ps.information(loaded.spec, kinematics, device, candidates)
 
 

@@ -93,7 +93,7 @@ def test_cli_plans_for_the_iso_cube(kuka, tmp_path):
 @pytest.mark.parametrize("device, args, message", [
     ("tracker", ["--region", "moon"], "--region moon: choose one of iso_cube, grid"),
     ("tracker", ["--region", "grid", "--orientation", "up"], "--orientation up"),
-    ("ballbar", ["--region", "grid"], "a ball-bar reads bar lengths"),
+    ("ballbar", ["--region", "grid"], "reads each pose on its own pivot and sphere"),
 ])
 def test_cli_region_mistakes_are_one_clear_message(kuka, tmp_path, device, args, message):
     result = _cli(kuka[device], "--poses", 5, *args, "--runs", 0, "--out", tmp_path / "p.csv", cwd=tmp_path)

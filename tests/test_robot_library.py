@@ -17,7 +17,8 @@ from conftest import armcal_cli
 from robot_urdfs import CHAINS, urdf_flange_pose
 
 from armcal.kinematics.compiler import compile_robot
-from armcal.new_spec import DEVICES, new_spec_text
+from armcal.devices.registry import INSTRUMENTS
+from armcal.new_spec import new_spec_text
 from armcal.robot_library import library_robot, names
 from armcal.spec import load_spec
 
@@ -53,7 +54,7 @@ def test_home_lies_within_the_limits(name):
     assert np.all((limits[:, 0] <= home + 1e-12) & (home <= limits[:, 1] + 1e-12))
 
 
-@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("device", list(INSTRUMENTS))
 def test_new_writes_a_valid_spec_for_every_robot(device, tmp_path):
     for name in names():
         path = tmp_path / f"{name}-{device}.yaml"
@@ -97,4 +98,4 @@ def test_new_lists_the_robots_and_refuses_an_unknown_device():
     assert [line.split()[0] for line in listed] == names()
     assert "Franka Emika Panda" in listed[names().index("franka_panda")]
     wrong = armcal_cli("new", "--robot", "ur5e", "--device", "laser")
-    assert wrong.returncode == 1 and "unknown device 'laser'; choose one of tracker, ballbar, theodolite, sonic_digitizer" in wrong.stderr
+    assert wrong.returncode == 1 and "unknown device 'laser'; choose one of sonic_digitizer, ballbar, theodolite, tracker" in wrong.stderr

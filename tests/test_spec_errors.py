@@ -141,7 +141,7 @@ def test_a_theodolite_cannot_run_circle_point_sweeps(tmp_path):
     text = text.replace("procedure:\n  type: poses\n  count: 150\n  seed: 3\n", "procedure:\n  type: circle_point\n  signature: [0, -90, 180, 0, 0, 0]\n  targets: [a, b, c, d, e, f]\n", 1)
     path = tmp_path / "circle.yaml"
     path.write_text(text)
-    assert any(f == "procedure.type" and "sonic_digitizer, tracker" in m for _, _, f, m in _problems(path))
+    assert any(f == "procedure.type" and "needs a sonic_digitizer or tracker device, not theodolite" in m for _, _, f, m in _problems(path))
 
 
 def test_tracker_orientation_needs_its_noise(tmp_path):

@@ -2,18 +2,15 @@
 
 Common: ``sample``, ``q1..qN`` (spec angle unit for revolute joints, length unit
 for prismatic), optional ``t`` (s), ``temperature`` (degC), ``dir1..dirN`` (+1/-1).
-Per device:
-  ballbar     pivot, sphere, length [, extension]
-  sonic       target and either s_A, s_B, s_C[, s_D] (slant ranges, with optional
-              calibration-rod ranges rod_<mic>_1, rod_<mic>_2) or x, y, z (triangulated)
-  theodolite  station, target, azimuth, elevation
-  tracker     target, x, y, z [, rx, ry, rz]
+The instrument adds its key columns and readings (DeviceModel.key_columns,
+reading_columns; the contract lists each instrument's).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from armcal.devices import device_model
 from armcal.spec.model import Spec
 from armcal.spec.robot import joint_kind
 
@@ -22,10 +19,10 @@ from armcal.spec.robot import joint_kind
 class Layout:
     """Which columns a data file of a spec may have, and the kind of each."""
 
-    key_columns: tuple[str, ...]
+    key_columns: tuple[str, ...]  # the instrument's text columns that make a sample's key
     required: dict[str, str]  # column -> kind (length, angle, ...)
     optional: dict[str, str]
-    sonic_mode: str | None = None
+    optional_keys: tuple[str, ...] = ()  # key columns a file may leave out or empty (None in the key)
 
     @property
     def known(self) -> dict[str, str]:
@@ -41,21 +38,10 @@ def _common(spec: Spec) -> tuple[dict[str, str], dict[str, str]]:
 
 
 def layout(spec: Spec, header: list[str]) -> Layout:
-    """The layout of a data file with this header (the sonic digitizer's mode is read from it)."""
-    required, optional = _common(spec)
-    device = spec.device
-    if device.type == "ballbar":
-        return Layout(("pivot", "sphere"), {**required, "pivot": "text", "sphere": "text", "length": "length"}, {**optional, "extension": "text"})
-    if device.type == "theodolite":
-        return Layout(("station", "target"), {**required, "station": "text", "target": "text", "azimuth": "angle", "elevation": "angle"}, optional)
-    if device.type == "tracker":
-        readings = {c: "length" for c in "xyz"}
-        if device.orientation:
-            readings.update({c: "angle" for c in ("rx", "ry", "rz")})
-        return Layout(("target",), {**required, "target": "text", **readings}, optional)
-    if "x" in header and not any(h.startswith("s_") for h in header):
-        return Layout(("target",), {**required, "target": "text", **{c: "length" for c in "xyz"}}, optional, "points")
-    ranges = {f"s_{m}": "length" for m in device.microphones if m in ("A", "B", "C")}
-    extra = {f"s_{m}": "length" for m in device.microphones if m not in ranges}
-    rods = {f"rod_{rod.microphone}_{i}": "length" for rod in device.calibration_rods for i in (1, 2)}
-    return Layout(("target",), {**required, "target": "text", **ranges}, {**optional, **extra, **rods}, "ranges")
+    """The layout of a data file with this header (an instrument that offers a choice of readings tells it from it)."""
+    joints, optional = _common(spec)
+    device = device_model(spec)
+    keys = {c: "text" for c in device.key_columns}
+    readings, extra = device.reading_columns(header)
+    optional_keys = {c: "text" for c in device.optional_key_columns}
+    return Layout(device.key_columns, {**joints, **keys, **readings}, {**optional, **optional_keys, **extra}, device.optional_key_columns)

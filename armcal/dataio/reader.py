@@ -13,7 +13,7 @@ import numpy as np
 
 from armcal.dataio.columns import Layout, layout
 from armcal.dataio.measurements import Measurements
-from armcal.devices.theodolite import BAR_ENDS
+from armcal.devices import device_model
 from armcal.errors import Issue, SpecError
 from armcal.fileio import read_input
 from armcal.spec.model import Spec
@@ -96,33 +96,16 @@ def _number(text: str, kind: str, spec: Spec) -> float:
     return value
 
 
-def _valid_names(spec: Spec) -> dict[str, set[str]]:
-    device = spec.device
-    names: dict[str, set[str]] = {"target": set(spec.robot.targets)}
-    if device.type == "ballbar":
-        names.update(pivot=set(device.pivots), sphere=set(device.spheres), extension=set(device.extension_rods) | {""})
-    elif device.type == "theodolite":
-        names.update(station=set(device.stations), target=set(device.targets) | set(BAR_ENDS if device.scale_bar else ()))
-    else:
-        names["target"] = set(getattr(device, "targets", spec.robot.targets))
-    return names
-
-
-def _link_numbers(spec: Spec) -> dict[str, str]:
-    """Sonic data may name a sparker by the link that carries it (the contract's target 1..N)."""
-    if spec.device.type != "sonic_digitizer":
-        return {}
-    on_link: dict[int, list[str]] = {}
-    for name, target in spec.robot.targets.items():
-        on_link.setdefault(target.link, []).append(name)
-    return {str(link): names[0] for link, names in on_link.items() if len(names) == 1 and link >= 1}
+def _valid_names(spec: Spec, device) -> dict[str, set[str]]:
+    return {"target": set(spec.robot.targets), **device.key_names(spec.robot)}
 
 
 def _parse(path: Path, spec: Spec, cols: Layout, header: list[str], rows: list[list[str]], problems: _Problems):
     """Numeric columns (internal units, NaN if empty) and text columns of every row, checked."""
     index = {name: i for i, name in enumerate(header)}
-    names = _valid_names(spec)
-    links = _link_numbers(spec)
+    device = device_model(spec)
+    names = _valid_names(spec, device)
+    links = device.target_aliases(spec.robot)
     values = {c: np.full(len(rows), np.nan) for c, k in cols.known.items() if k != "text" and c in index}
     text = {c: [""] * len(rows) for c, k in cols.known.items() if k == "text" and c in index}
     for r, row in enumerate(rows):
@@ -131,7 +114,7 @@ def _parse(path: Path, spec: Spec, cols: Layout, header: list[str], rows: list[l
             hint = " (decimal commas? armcal reads '.' as the decimal mark)" if len(row) > len(header) and DECIMAL_COMMA.search(",".join(row)) else ""
             problems.add(line, None, "", f"{len(row)} fields, but the header has {len(header)}{hint}")
             continue
-        on_robot = "target" not in index or row[index["target"]].strip() not in BAR_ENDS
+        on_robot = "target" not in index or row[index["target"]].strip() not in device.off_robot_targets
         for column, kind in cols.known.items():
             if column not in index:
                 continue
@@ -190,7 +173,7 @@ def read_measurements(path: Path, spec: Spec) -> Measurements:
     if "dir1" in values:
         extras["dir"] = np.stack([values.get(f"dir{i}", np.zeros(count)) for i in range(1, n + 1)], axis=1)
     return Measurements(
-        keys=_keys(spec, cols, text, count),
+        keys=_keys(cols, text, count),
         q=np.stack([values[f"q{i}"] for i in range(1, n + 1)], axis=1),
         readings=readings,
         extras=extras,
@@ -206,17 +189,20 @@ def read_joint_file(path: Path, spec: Spec) -> np.ndarray:
 
 
 def read_pose_file(path: Path, spec: Spec) -> tuple[np.ndarray, tuple | None]:
-    """Joint values (N, n) of a pose list and, for a ball-bar, the key each pose is read with.
+    """Joint values (N, n) of a pose list and, for an instrument that reads each pose on one key, that key.
 
-    Columns q1..qN, optionally sample; a ball-bar's pose list also has pivot and sphere (and optionally
-    extension), the bar each pose is measured with (``armcal plan`` writes them). Other devices read every
-    pose on each of their keys: their keys are None.
+    Columns q1..qN, optionally sample; such an instrument's pose list also has its key columns (a ball-bar's
+    pivot, sphere and optionally extension: the bar each pose is measured with, as ``armcal plan`` writes them).
+    Other instruments read every pose on each of their keys: their keys are None.
     """
+    device = device_model(spec)
     joints = {f"q{i}": ("angle" if j.type == "revolute" else "length") for i, j in enumerate(spec.robot.joints, start=1)}
-    bar = {"pivot": "text", "sphere": "text"} if spec.device.type == "ballbar" else {}
-    cols, values, text, count = _rows(Path(path), spec, lambda header: Layout(("pivot", "sphere") if bar else (), {**joints, **bar}, {"sample": "text", **({"extension": "text"} if bar else {})}))
-    keys = _keys(spec, cols, text, count) if bar else None
-    return np.stack([values[c] for c in joints], axis=1), keys
+    keyed = device.keyed_poses
+    keys = {c: "text" for c in device.key_columns} if keyed else {}
+    optional = {"sample": "text", **({c: "text" for c in device.optional_key_columns} if keyed else {})}
+    columns = Layout(device.key_columns if keyed else (), {**joints, **keys}, optional, device.optional_key_columns if keyed else ())
+    cols, values, text, count = _rows(Path(path), spec, lambda header: columns)
+    return np.stack([values[c] for c in joints], axis=1), _keys(cols, text, count) if keyed else None
 
 
 def _unique_samples(samples: list[str], column: int, problems: _Problems) -> None:
@@ -228,8 +214,8 @@ def _unique_samples(samples: list[str], column: int, problems: _Problems) -> Non
             first[sample] = r + 2
 
 
-def _keys(spec: Spec, cols: Layout, text: dict[str, list[str]], count: int) -> tuple:
-    if spec.device.type == "ballbar":
-        extension = text.get("extension", [""] * count)
-        return tuple((p, s, e or None) for p, s, e in zip(text["pivot"], text["sphere"], extension))
-    return tuple(zip(*(text[c] for c in cols.key_columns)))
+def _keys(cols: Layout, text: dict[str, list[str]], count: int) -> tuple:
+    """Each sample's key: its key columns' names, then its optional key columns' (None where empty or left out)."""
+    required = zip(*(text[c] for c in cols.key_columns))
+    optional = zip(*(text.get(c, [""] * count) for c in cols.optional_keys)) if cols.optional_keys else ((),) * count
+    return tuple((*k, *(v or None for v in o)) for k, o in zip(required, optional))

@@ -30,10 +30,10 @@ def measurements_csv(measurements: Measurements, spec: Spec) -> str:
     cols = layout(spec, channels)
     n = spec.robot.dof
     extra = [c for c in measurements.extras if c != "dir"]
-    header = ["sample", *cols.key_columns]
-    has_extension = spec.device.type == "ballbar" and any(k[2] for k in measurements.keys)
-    if has_extension:
-        header.append("extension")
+    width = len(cols.key_columns)
+    used = [i for i in range(len(cols.optional_keys)) if any(len(k) > width + i and k[width + i] for k in measurements.keys)]
+    present = cols.optional_keys[: max(used) + 1 if used else 0]  # up to the last optional key column any sample fills
+    header = ["sample", *cols.key_columns, *present]
     header += [f"q{i}" for i in range(1, n + 1)] + channels + extra
     if "dir" in measurements.extras:
         header += [f"dir{i}" for i in range(1, n + 1)]
@@ -42,9 +42,7 @@ def measurements_csv(measurements: Measurements, spec: Spec) -> str:
     kinds = cols.known
     for r, key in enumerate(measurements.keys):
         sample = measurements.sample[r] if measurements.sample else str(r + 1)
-        fields = [sample, *(key[i] or "" for i in range(len(cols.key_columns)))]
-        if has_extension:
-            fields.append(key[2] or "")
+        fields = [sample, *(key[i] or "" for i in range(width + len(present)))]
         fields += [_format(v, kinds[f"q{i + 1}"], spec) for i, v in enumerate(measurements.q[r])]
         fields += [_format(measurements.readings[c][r], kinds[c], spec) for c in channels]
         fields += [_format(measurements.extras[c][r], kinds.get(c, "number"), spec) for c in extra]

@@ -1,25 +1,24 @@
-"""Measurement models of the seeds' instruments: sonic digitizer, ball-bar, theodolite, tracker."""
+"""Measuring instruments, one module each (sonic digitizer, ball-bar, theodolite, tracker), behind DeviceModel."""
 
-from armcal.devices.ballbar import BallBarModel
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from armcal.devices.base import Channel, DeviceModel, Key
-from armcal.devices.sonic import SonicModel
-from armcal.devices.theodolite import TheodoliteModel
-from armcal.devices.tracker import TrackerModel
-from armcal.spec.model import Spec
-from armcal.spec.procedure import CirclePoint
+from armcal.devices.registry import INSTRUMENTS
+
+if TYPE_CHECKING:
+    from armcal.spec.model import Spec
 
 
 def device_model(spec: Spec, mode: str = "ranges") -> DeviceModel:
-    """The measurement model of a spec's device (sonic: ``mode`` ranges or points)."""
-    device = spec.device
-    if device.type == "sonic_digitizer":
-        averaging = spec.procedure.averaging if isinstance(spec.procedure, CirclePoint) else 1
-        return SonicModel(device, averaging=averaging, mode=mode)
-    if device.type == "ballbar":
-        return BallBarModel(device)
-    if device.type == "theodolite":
-        return TheodoliteModel(device)
-    return TrackerModel(device)
+    """The measurement model of a spec's device (``mode``: which readings it fits where it offers a choice)."""
+    return INSTRUMENTS[spec.device.type].from_spec(spec, mode)
 
 
-__all__ = ["Channel", "DeviceModel", "Key", "device_model"]
+def readings_mode(spec: Spec, header: list[str], requested: str) -> str:
+    """The readings a data file with this header holds, where the spec's instrument offers a choice."""
+    return INSTRUMENTS[spec.device.type].readings_mode(header, requested)
+
+
+__all__ = ["Channel", "DeviceModel", "Key", "device_model", "readings_mode"]

@@ -11,13 +11,115 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from typing import ClassVar, Literal
+
+from pydantic import Field
+
 from armcal.devices.base import Channel, DeviceModel, Key, declared
+from armcal.effects.library import EffectSpec
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
-from armcal.spec.device import BallBar
+from armcal.spec.base import Length, LengthParam
+from armcal.spec.starter import mm
+from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
+
+
+TRAVEL_KEYS = "device.travel, device.length (the reading must stay within travel/2 of mid-travel)"
+
+
+class BallBar(DeviceSpec):
+    """Telescopic ball-bar between a fixed pivot and a sphere on the robot (Goswami)."""
+
+    type: Literal["ballbar"]
+    pivots: dict[str, Point] = Field(min_length=1, description="magnetic chucks of the base fixture (world frame)")
+    spheres: list[str] = Field(min_length=1, description="names of robot targets that carry a sphere")
+    length: LengthParam = Field(description="centre-to-centre length at mid-travel, without extension rods")
+    extension_rods: dict[str, Length] = Field({}, description="extension rods by name and length (Goswami's 46/61 cm bars)")
+    travel: Length = Field(gt=0.0, description="LVDT travel (7.5 cm in Goswami)")
+    noise: LengthSigma = Field(description="length noise sigma, or auto (estimated from the data)")
+    estimate_noise: bool = Field(False, description=ESTIMATE_HELP)
+    noise_groups: list[Literal["kind", "target", "pairing"]] = Field(["kind"], description=GROUPS_HELP)
+
+    procedures: ClassVar[tuple[str, ...]] = ("shells", "poses")
+    instrument_effects: ClassVar[tuple[str, ...]] = ("ballbar_length", "pivot_offset")
+    target_field: ClassVar[str] = "spheres"
+    held_out_metric: ClassVar[str] = "bar-length error"
+
+    def seen_targets(self) -> list[str]:
+        return list(self.spheres)
+
+    def check_procedure(self, procedure, loc):
+        yield from super().check_procedure(procedure, loc)
+        if procedure.type == "poses" and procedure.file is None:
+            yield (*loc, "count"), "a ball-bar's poses come from a file with pivot and sphere columns (armcal plan writes one), not count"
+        if procedure.type != "shells":
+            return
+        for i, pairing in enumerate(procedure.pairings):
+            if pairing.pivot not in self.pivots:
+                yield (*loc, "pairings", i, "pivot"), f"pivot '{pairing.pivot}' is not in device.pivots"
+            if pairing.sphere not in self.spheres:
+                yield (*loc, "pairings", i, "sphere"), f"sphere '{pairing.sphere}' is not in device.spheres"
+        if procedure.extension is not None and procedure.extension not in self.extension_rods:
+            yield (*loc, "extension"), f"extension rod '{procedure.extension}' is not in device.extension_rods"
+
+    def check_effect(self, effect, loc):
+        if effect.type == "pivot_offset" and effect.pivot not in self.pivots:
+            yield (*loc, "pivot"), f"pivot '{effect.pivot}' is not in device.pivots"
+
+    def parameter_location(self, name: str) -> list[str]:
+        if name == "bar.length":
+            return ["device", "length"]
+        _, pivot, field = name.split(".")
+        return ["device", "pivots", pivot, field]
+
+    @staticmethod
+    def starter(dof: int, home: list[float], s: float) -> tuple[list[str], list[str]]:
+        """`armcal new`\'s targets and sections (``dof`` joints, ``s`` times the PUMA 560\'s size): Goswami's fixture scaled to the robot: three spheres, three chucks, shells."""
+        # Goswami's fixture: three spheres 60 mm off the flange axis, 80 mm out; three chucks on the table.
+        spheres = [(60.0, 0.0), (-30.0, 51.962), (-30.0, -51.962)]
+        targets = [f"sphere{i}: {{link: {dof}, x: {x:g}, y: {y:g}, z: 80}}" for i, (x, y) in enumerate(spheres, 1)]
+        chucks = [(565.0, 0.0), (392.5, 100.0), (392.5, -100.0)]
+        pairings = [f"    - {{pivot: chuck{p}, sphere: sphere{q}}}" for p in (1, 2, 3) for q in (1, 2, 3)]
+        shells = ["  latitudes: [20, 35, 50, 65, 80]", "  longitudes: 23"]
+        return targets, [
+            "device:",
+            "  type: ballbar",
+            "  # Three magnetic chucks on a fixture in front of the robot, robot base frame (placeholders",
+            "  # scaled from Goswami's PUMA fixture, specs/goswami_puma560.yaml).",
+            "  pivots:",
+            *(f"    chuck{i}: {{x: {mm(x * s)}, y: {mm(y * s)}, z: 0.0}}" for i, (x, y) in enumerate(chucks, 1)),
+            "  spheres: [sphere1, sphere2, sphere3]",
+            f"  length: {{value: {mm(460 * s)}, vary: false}}   # centre-to-centre at mid-travel",
+            f"  extension_rods: {{rod: {mm(150 * s)}}}",
+            f"  travel: {mm(75 * s)}",
+            "  noise: 0.084   # mm (Goswami's residual level)",
+            "procedure:",
+            "  type: shells",
+            "  pairings:",
+            *pairings,
+            *shells,
+            "validation:   # the same pairings with the extension rod: held-out shells",
+            "  type: shells",
+            "  pairings:",
+            *pairings,
+            *shells,
+            "  extension: rod",
+        ]
+
+    def describe(self, length) -> tuple[str, list[str]]:
+        return (f"telescopic ball-bar, {length(self.length.value)} at mid-travel, travel {length(self.travel)}",
+                [f"pivots {', '.join(self.pivots)}", f"spheres {', '.join(self.spheres)}"])
+
+    def out_of_range(self, length) -> tuple[str, str, str]:
+        return (f"outside the bar's travel (device.travel {length(self.travel)}: within {length(self.travel / 2)} of mid-travel)",
+                "bar travel", TRAVEL_KEYS)
 
 
 class BallBarModel(DeviceModel):
     type = "ballbar"
+    section = BallBar
+    key_columns = ("pivot", "sphere")
+    optional_key_columns = ("extension",)
+    keyed_poses = True
 
     def __init__(self, spec: BallBar):
         self.spec = spec
@@ -56,3 +158,16 @@ class BallBarModel(DeviceModel):
         """Within the LVDT travel: |length - mid-travel length| <= travel / 2."""
         readings = np.atleast_2d(readings)
         return np.abs(readings[:, 0] - self.mid_travel_length(key)) <= self.spec.travel / 2
+
+    def reading_columns(self, header: list[str]) -> tuple[dict[str, str], dict[str, str]]:
+        return {"length": "length"}, {}
+
+    def key_names(self, robot) -> dict[str, set[str]]:
+        return {"pivot": set(self.spec.pivots), "sphere": set(self.spec.spheres), "extension": set(self.spec.extension_rods) | {""}}
+
+    def candidate_effects(self, free: set[str]) -> list[EffectSpec]:
+        out = [] if "bar.length" in free else [EffectSpec("ballbar_length")]
+        return out + [EffectSpec("pivot_offset", pivot=p) for p in self.spec.pivots if not any(f"pivot.{p}.{c}" in free for c in "xyz")]
+
+    def centre(self, key: Key, values: dict[str, float]) -> np.ndarray:
+        return np.array([values[f"pivot.{key[0]}.{c}"] for c in "xyz"])

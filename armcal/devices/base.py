@@ -41,11 +41,88 @@ class Channel:
 
 
 class DeviceModel(ABC):
-    """A measuring instrument as a function of the measured pose and its own parameters."""
+    """A measuring instrument as a function of the measured pose and its own parameters.
 
-    type: str
+    It is everything the rest of armcal knows of an instrument: its measurement
+    model, its data files' columns, the keys a pose is read on, its description,
+    the effects on its side the diagnosis may propose, and where a fit starts.
+    The defaults are those of an instrument that reads robot targets by name.
+    """
+
+    type: str  # the spec's device.type
+    section: type  # the pydantic model of its spec section (a spec.instrument.DeviceSpec)
     parameters: ParameterSet
     spec: object  # the device section of the spec
+
+    @classmethod
+    def from_spec(cls, spec, mode: str) -> "DeviceModel":
+        """The model of ``spec``'s device; ``mode``: which readings it fits where it offers a choice."""
+        return cls(spec.device)
+
+    @staticmethod
+    def readings_mode(header: list[str], requested: str) -> str:
+        """The readings a data file with this header holds, where the instrument offers a choice."""
+        return requested
+
+    # Its data files (the CSV contract of ARCHITECTURE.md)
+    key_columns: tuple[str, ...] = ("target",)  # text columns that make a sample's key
+    optional_key_columns: tuple[str, ...] = ()  # key columns a file may leave out or empty (None in the key)
+    keyed_poses: bool = False  # each pose is read on one key, which pose lists name; else on every pose_keys()
+
+    @abstractmethod
+    def reading_columns(self, header: list[str]) -> tuple[dict[str, str], dict[str, str]]:
+        """Required and optional reading columns -> kind (length, angle) of a data file with this header."""
+
+    def key_names(self, robot) -> dict[str, set[str]]:
+        """The names each key column accepts (the empty string: an optional column left empty)."""
+        return {"target": set(getattr(self.spec, "targets", robot.targets))}
+
+    def target_aliases(self, robot) -> dict[str, str]:
+        """Other names data files may give a target (e.g. the link that carries it) -> its name."""
+        return {}
+
+    off_robot_targets: tuple[str, ...] = ()  # names in a target column that are not on the robot (no joint values)
+
+    def pose_keys(self) -> list[Key]:
+        """The keys read at every pose of a pose list."""
+        return [(target,) for target in self.spec.targets]
+
+    def fixed_samples(self) -> list[Key]:
+        """Keys a pose list adds, read with no robot pose (e.g. a theodolite's scale-bar marks)."""
+        return []
+
+    def pseudo_observations(self) -> dict[Key, tuple[float, ...]]:
+        """Readings the spec gives rather than the data, by key (e.g. a scale bar's certified length)."""
+        return {}
+
+    # The effects on its side, and where a fit starts
+    def candidate_effects(self, free: set[str]) -> list:
+        """The instrument-side effects the diagnosis may propose (EffectSpec), given the free parameters."""
+        return []
+
+    def registered(self, theta: np.ndarray, names: tuple[str, ...], free: set[str], kinematics, data) -> np.ndarray | None:
+        """The parameter vector ``theta`` with its free placement registered from the data, where the instrument
+        can stand far from its nominal placement; None: the nominal values are the start."""
+        return None
+
+    def centre(self, key: Key, values: dict[str, float]) -> np.ndarray | None:
+        """The fixed point a key's readings are taken from (a ball-bar's pivot), at parameter ``values``; None if none."""
+        return None
+
+    # Its simulation
+    def true_parameters(self, pd: np.ndarray) -> np.ndarray:
+        """A simulated instrument's true parameters from drawn ones (e.g. a scale bar true to its certificate)."""
+        return pd
+
+    def simulated_readings(self, key: Key, values: np.ndarray, poses: np.ndarray, pd: np.ndarray, settings, rng) -> tuple:
+        """What the simulated instrument reads from the noise-free ``values`` (N, channels) of the true ``poses``:
+        (readings, which of them it can read, further columns it records). Here: its noise model's Gaussian noise
+        (``settings.noise``, times ``noise_factor``); a reading the noise carried out of range is lost."""
+        readable = np.ones(len(values), dtype=bool)
+        if not settings.noise:
+            return values, readable, {}
+        values = values + rng.normal(size=values.shape) * self.sigma(key, values) * settings.noise_factor
+        return values, self.measurable(key, values) if self.target(key) is not None else readable, {}
 
     @abstractmethod
     def channels(self, key: Key) -> tuple[Channel, ...]:

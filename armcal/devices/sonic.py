@@ -4,22 +4,224 @@ Readings are either the slant ranges themselves (``s_A, s_B, ...``) or the
 target's position triangulated by the instrument in the sensor frame
 (``x, y, z``, (6.1)-(6.6), general non-right triangle). The sensor frame has its
 origin at microphone C, y towards B and z out of the plane of A, B, C.
+
+The speed of sound and Stone's compensation (App. E): the instrument converts a
+time of flight t* to a range with its internal speed S*: s = S* t*. With the
+speed varying linearly along the line of sight from v_T at the target to v_M at
+the microphone (assumption B-3), dx/dt = v_T + mu x (E.2), so a true distance L
+takes t* = ln(1 + mu L / v_T) / mu and, conversely, L = v_T (exp(mu t*) - 1) / mu
+(E.3) with mu = (v_M - v_T) / L (E.4).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+from typing import Annotated, Any, ClassVar, Literal, Union
+
 import casadi as ca
 import numpy as np
+from pydantic import Field, ValidationInfo, WrapValidator
 
 from armcal.devices.base import Channel, DeviceModel, Key, transform_point
+from armcal.effects.library import EffectSpec
+from armcal.errors import UserError
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
-from armcal.devices.sound import ROD_NEAR
 from armcal.kinematics.transforms import xyz_zyx
-from armcal.errors import UserError
-from armcal.spec.device import AUTO, SonicDigitizer
+from armcal.spec.base import Length, Number, ScaleParam, SpecModel, fixed
+from armcal.spec.starter import mm
+from armcal.spec.instrument import AUTO, ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, Point, is_auto
+from armcal.spec.robot import Pose
 
 PRIMARY = ("A", "B", "C")  # microphones used to triangulate (s_1, s_2, s_3 of 6.1-6.6)
+ROOM_TEMPERATURE = 21.1  # degC, 70 F: the sonic digitizer's nominal conditions
+
+
+# The speed of sound (App. E)
+ZERO_CELSIUS_SPEED = 331_450.0  # mm/s in dry air at 0 degC
+ROD_NEAR = 300.0  # mm from a calibration rod's microphone to its near sparker
+
+
+def speed_of_sound(temperature_c: np.ndarray | float) -> np.ndarray:
+    """Speed of sound in air (mm/s) at a temperature in degC (ideal gas, ~0.6 m/s per degC)."""
+    return ZERO_CELSIUS_SPEED * np.sqrt(1.0 + np.asarray(temperature_c, dtype=float) / 273.15)
+
+
+def raw_range(distance: np.ndarray, v_target: np.ndarray, v_microphone: np.ndarray, internal_speed: float) -> np.ndarray:
+    """What the instrument reads for a true distance: S* t*, with t* from integrating (E.2)."""
+    distance, v_target, v_microphone = np.broadcast_arrays(distance, v_target, v_microphone)
+    mu = (v_microphone - v_target) / distance
+    with np.errstate(divide="ignore", invalid="ignore"):
+        time = np.where(np.abs(mu) > 1e-12, np.log1p(mu * distance / v_target) / mu, distance / v_target)
+    return internal_speed * time
+
+
+def rod_ratio(near: np.ndarray, far: np.ndarray, rod_length: float) -> np.ndarray:
+    """f = D / (s_far - s_near): true over internal speed of sound at a rod's microphone (E.1)."""
+    return rod_length / (np.asarray(far) - np.asarray(near))
+
+
+def true_range(raw: np.ndarray, f_target: np.ndarray, f_microphone: np.ndarray, iterations: int = 50) -> np.ndarray:
+    """Solve (E.3)-(E.4) for L by Jacobi (fixed-point) iteration, speeds as ratios f = v / S*.
+
+    With t* = s / S*, (E.3) reads L = f_T s (exp(mu' s) - 1) / (mu' s) with
+    mu' = (f_M - f_T) / L; the iteration starts from L = f_T s.
+    """
+    raw, f_target, f_microphone = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (raw, f_target, f_microphone)))
+    length = f_target * raw
+    for _ in range(iterations):
+        x = (f_microphone - f_target) / length * raw  # mu' s
+        factor = np.where(np.abs(x) > 1e-12, np.expm1(x) / np.where(x == 0, 1.0, x), 1.0 + x / 2)
+        updated = f_target * raw * factor
+        if np.allclose(updated, length, rtol=0.0, atol=1e-9):
+            return updated
+        length = updated
+    return length
+
+
+def vertical(microphones: dict[str, np.ndarray]) -> np.ndarray:
+    """Unit 'up' in the sensor frame: in the sensor plane, across A-C (which is level) towards B (6.3.1)."""
+    a, b, c = (np.asarray(microphones[m], dtype=float) for m in ("A", "B", "C"))
+    level = (a - c) / np.linalg.norm(a - c)
+    up = (b - c) - np.dot(b - c, level) * level
+    return up / np.linalg.norm(up)
+
+
+def ratio_at(height: np.ndarray, heights: tuple[float, float], ratios: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Speed ratio linearly interpolated in height between two rods (B-3)."""
+    (h1, h2), (f1, f2) = heights, ratios
+    return f1 + (np.asarray(height) - h1) * (f2 - f1) / (h2 - h1)
+
+
+def compensate(
+    raw: dict[str, np.ndarray],
+    rods: dict[str, np.ndarray],
+    microphones: dict[str, np.ndarray],
+) -> dict[str, np.ndarray]:
+    """Stone's slant range compensation (App. E.2): raw ranges -> true ranges per microphone.
+
+    ``raw``: readings per primary microphone (A, B, C); ``rods``: speed ratio f per
+    rod microphone (E.1), one or two of them; ``microphones``: nominal positions.
+    Overall correction by the mean ratio (E.5) gives a first triangulation whose
+    height sets the ratio at the target; each range is then solved from (E.3).
+    """
+    from armcal.devices.sonic import PRIMARY, microphone_distances, triangulate
+
+    up = vertical(microphones)
+    names = list(rods)
+    if len(names) == 1:
+        names = names * 2
+    heights = tuple(float(np.dot(microphones[m], up)) for m in names)
+    ratios = tuple(rods[m] for m in names)
+    if heights[0] == heights[1]:
+        heights = (heights[0], heights[0] + 1.0)  # one level: a uniform ratio
+    f_average = (ratios[0] + ratios[1]) / 2  # (E.5)
+    w = microphone_distances(microphones)
+    first = np.stack(triangulate(*(f_average * raw[m] for m in PRIMARY), *w), axis=-1)
+    f_target = ratio_at(first @ up, heights, ratios)
+    return {
+        m: true_range(raw[m], f_target, ratio_at(float(np.dot(microphones[m], up)), heights, ratios)) for m in raw
+    }
+
+
+class RangeNoise(SpecModel):
+    """Range noise sigma = a * range + b, Stone (7.9)."""
+
+    a: Number = Field(ge=0.0, description="dimensionless slope of sigma with range")
+    b: Length = Field(gt=0.0, description="sigma at zero range")
+
+
+class CalibrationRod(SpecModel):
+    """Two sparkers a known distance apart, level with a microphone, Stone App. E.1."""
+
+    length: Length = Field(gt=0.0, description="distance between the rod's two sparkers")
+    microphone: str = Field(description="microphone the rod is level with (B or D in Stone's array)")
+
+
+def _range_noise_or_auto(value: Any, handler, info: ValidationInfo) -> "RangeNoise | str":
+    if is_auto(value):
+        return AUTO
+    if not isinstance(value, (dict, RangeNoise)):
+        raise ValueError(f"expected auto or {{a, b}} (sigma = a * range + b), got {value!r}")
+    return RangeNoise.model_validate(value, context=info.context)
+
+
+class SonicDigitizer(DeviceSpec):
+    """Ultrasonic digitizer: slant ranges from a sparker to each microphone (Stone 6.3)."""
+
+    type: Literal["sonic_digitizer"]
+    microphones: dict[str, Point] = Field(min_length=3, max_length=4, description="microphone positions in the sensor frame (A, B, C[, D])")
+    robot_base: Pose = Field(Pose(), description="robot base frame in the sensor frame (free unless fixed)")
+    speed_of_sound: Length = Field(gt=0.0, description="nominal speed of sound, length per second")
+    calibration_rods: list[CalibrationRod] = Field([], description="rods for the speed-of-sound compensation (App. E.1)")
+    temperature_gradient: float = Field(0.0, description="vertical temperature gradient, degC per metre (App. E, B-3)")
+    noise: Annotated[Union[RangeNoise, Literal["auto"]], WrapValidator(_range_noise_or_auto)] = Field(
+        description="range noise sigma = a * range + b (7.9), or auto: one sigma per group, estimated from the data"
+    )
+    estimate_noise: bool = Field(False, description=ESTIMATE_HELP)
+    noise_groups: list[Literal["kind", "target", "microphone"]] = Field(["kind"], description=GROUPS_HELP)
+    resolution: Length = Field(0.1, ge=0.0, description="range quantisation (0.01 cm for the GP-8-3D)")
+    range_limits: tuple[Length, Length] = Field((300.0, 2500.0), description="shortest and longest range the digitizer reads")
+    scale: ScaleParam = fixed(1.0)
+
+    procedures: ClassVar[tuple[str, ...]] = ("circle_point",)
+    instrument_effects: ClassVar[tuple[str, ...]] = ("sensor_scale", "range_bias")
+    fixes_positions: ClassVar[bool] = True
+
+    def check(self, spec):
+        for i, rod in enumerate(self.calibration_rods):
+            if rod.microphone not in self.microphones:
+                yield ("device", "calibration_rods", i, "microphone"), f"microphone '{rod.microphone}' is not in device.microphones"
+
+    def check_effect(self, effect, loc):
+        if effect.type == "range_bias" and effect.microphone not in self.microphones:
+            yield (*loc, "microphone"), f"microphone '{effect.microphone}' is not in device.microphones"
+
+    def parameter_location(self, name: str) -> list[str]:
+        if name == "sonic.scale":
+            return ["device", "scale"]
+        if name.startswith("mic."):
+            _, microphone, field = name.split(".")
+            return ["device", "microphones", microphone, field]
+        return super().parameter_location(name)
+
+    @staticmethod
+    def starter(dof: int, home: list[float], s: float) -> tuple[list[str], list[str]]:
+        """`armcal new`\'s targets and sections (``dof`` joints, ``s`` times the PUMA 560\'s size): Stone's GP-8-3D array scaled to the robot; circle-point sweeps from the maker's home."""
+        home = ", ".join(f"{v:g}" for v in home)
+
+        def fixed_point(x: float, y: float) -> str:
+            return f"{{x: {{value: {mm(x)}, vary: false}}, y: {{value: {mm(y)}, vary: false}}, z: {{value: 0, vary: false}}}}"
+
+        side = 1430.0 * s
+        return [f"sparker{i}: {{link: {i}, x: {mm(300 * s)}, y: {mm(150 * s)}, z: {mm(100 * s)}}}   # on link {i}, its DH frame" for i in range(1, dof + 1)], [
+            "device:",
+            "  type: sonic_digitizer",
+            "  # Stone's GP-8-3D array (specs/puma560_dh.yaml) scaled to the robot: origin at microphone C,",
+            "  # y towards B, z out of the sensor plane; D only for the speed-of-sound rods.",
+            "  microphones:",
+            f"    A: {fixed_point(side, 1440.87 * s)}",
+            f"    B: {fixed_point(0, side)}",
+            f"    C: {fixed_point(0, 0)}",
+            f"    D: {fixed_point(side, 0)}",
+            f"  robot_base: {{x: {mm(1597.32 * s)}, y: {mm(155.41 * s)}, z: {mm(694.22 * s)}, rz: -135.0, ry: 25.0, rx: 90.0}}",
+            "  speed_of_sound: 344000   # mm/s at 21 degC",
+            "  calibration_rods:",
+            "    - {length: 1000.0, microphone: B}",
+            "    - {length: 1000.0, microphone: D}",
+            "  noise: {a: 9.6432e-5, b: 0.03}   # sigma = a * range + b, mm (Stone 7.9)",
+            "  resolution: 0.1",
+            f"  range_limits: [300, {mm(max(2500.0, 2500.0 * s))}]",
+            "procedure:   # circle-point sweeps (Stone 4.5, 6.4): each joint alone, from the maker's home",
+            "  type: circle_point",
+            f"  signature: [{home}]",
+            f"  targets: [{', '.join(f'sparker{i}' for i in range(1, dof + 1))}]",
+            "  points_per_joint: 20",
+            "  averaging: 10",
+        ]
+
+    def describe(self, length) -> tuple[str, list[str]]:
+        return "sonic digitizer (slant ranges)", [f"microphones {', '.join(self.microphones)}", f"{len(self.calibration_rods)} calibration rods"]
 
 
 def triangulate(s1, s2, s3, w_ab, w_bc, w_ac):
@@ -49,6 +251,17 @@ class SonicModel(DeviceModel):
     """Slant ranges scale * |P x - mic| (P = robot base in the sensor frame, 4.48), or their triangulation."""
 
     type = "sonic_digitizer"
+    section = SonicDigitizer
+
+    @classmethod
+    def from_spec(cls, spec, mode: str) -> "SonicModel":
+        averaging = spec.procedure.averaging if spec.procedure is not None and spec.procedure.type == "circle_point" else 1
+        return cls(spec.device, averaging=averaging, mode=mode)
+
+    @staticmethod
+    def readings_mode(header: list[str], requested: str) -> str:
+        """Triangulated points when that is all the file holds, else as asked."""
+        return "points" if "x" in header and not any(h.startswith("s_") for h in header) else requested
 
     def __init__(self, spec: SonicDigitizer, averaging: int = 1, mode: str = "ranges"):
         if mode not in ("ranges", "points"):
@@ -132,10 +345,6 @@ class SonicModel(DeviceModel):
 
     def prepare(self, measurements):
         """Raw slant ranges -> compensated ranges (App. E, when rod ranges were recorded) -> points if fitted so."""
-        from dataclasses import replace
-
-        from armcal.devices.sound import compensate, rod_ratio
-
         readings = dict(measurements.readings)
         ranges = {m: readings[f"s_{m}"] for m in self.microphones if f"s_{m}" in readings}
         if not ranges:
@@ -173,3 +382,53 @@ class SonicModel(DeviceModel):
         values = self.parameters.values(self.parameters.nominal if pd is None else pd)
         base = xyz_zyx(*(values[f"robot_base.{f}"] for f in ("x", "y", "z", "rz", "ry", "rx")))
         return np.einsum("ij,nj->ni", base[:3, :3], np.asarray(poses)[:, :3, 3]) + base[:3, 3]
+
+    def reading_columns(self, header: list[str]) -> tuple[dict[str, str], dict[str, str]]:
+        """Slant ranges s_A, s_B, s_C (s_D optional) and calibration-rod ranges, or triangulated x, y, z."""
+        if self.readings_mode(header, "ranges") == "points":
+            return {c: "length" for c in "xyz"}, {}
+        ranges = {f"s_{m}": "length" for m in self.microphones if m in PRIMARY}
+        extra = {f"s_{m}": "length" for m in self.microphones if m not in PRIMARY}
+        rods = {f"rod_{rod.microphone}_{i}": "length" for rod in self.spec.calibration_rods for i in (1, 2)}
+        return ranges, {**extra, **rods}
+
+    def key_names(self, robot) -> dict[str, set[str]]:
+        return {"target": set(robot.targets)}
+
+    def target_aliases(self, robot) -> dict[str, str]:
+        """A sparker named by the link that carries it (the contract's target 1..N), where it is the link's only one."""
+        on_link: dict[int, list[str]] = {}
+        for name, target in robot.targets.items():
+            on_link.setdefault(target.link, []).append(name)
+        return {str(link): names[0] for link, names in on_link.items() if len(names) == 1 and link >= 1}
+
+    def candidate_effects(self, free: set[str]) -> list[EffectSpec]:
+        out = [] if "sonic.scale" in free else [EffectSpec("sensor_scale")]
+        return out + ([EffectSpec("range_bias", microphone=m) for m in self.microphones] if self.mode == "ranges" else [])
+
+    def simulated_readings(self, key: Key, values: np.ndarray, poses: np.ndarray, pd: np.ndarray, settings, rng) -> tuple:
+        """Raw slant ranges through a vertically stratified air (B-3), N_avg noisy quantised readings averaged; the
+        calibration rods' ranges (App. E.1) recorded beside them."""
+        air = settings.temperature[0] if settings.temperature else ROOM_TEMPERATURE
+        up = vertical(self.nominal_microphones)
+        temperature = lambda height: air + self.spec.temperature_gradient * height / 1000.0  # noqa: E731
+        target_speed = speed_of_sound(temperature(self._sensor_points(poses, pd) @ up))
+        raw = np.empty_like(values)
+        for c, microphone in enumerate(self.microphones):
+            microphone_speed = speed_of_sound(temperature(self.nominal_microphones[microphone] @ up))
+            raw[:, c] = raw_range(values[:, c], target_speed, microphone_speed, self.spec.speed_of_sound)
+        rods = {}
+        for rod in self.spec.calibration_rods:
+            speed = speed_of_sound(temperature(self.nominal_microphones[rod.microphone] @ up))
+            for i, distance in enumerate((ROD_NEAR, ROD_NEAR + rod.length), start=1):
+                rods[f"rod_{rod.microphone}_{i}"] = np.full(len(raw), raw_range(distance, speed, speed, self.spec.speed_of_sound))
+        averaged = lambda v: self._averaged_readings(v, rng, settings.noise_factor) if settings.noise else v  # noqa: E731
+        return averaged(raw), np.ones(len(raw), dtype=bool), {name: averaged(column[:, None])[:, 0] for name, column in rods.items()}
+
+    def _averaged_readings(self, values: np.ndarray, rng: np.random.Generator, factor: float) -> np.ndarray:
+        """Mean of N_avg readings, each with noise k sigma(range) (7.9, 7.4.3) and quantised to the resolution."""
+        sigma = factor * (self.spec.noise.a * values + self.spec.noise.b)
+        readings = values[..., None] + rng.normal(size=(*values.shape, self.averaging)) * sigma[..., None]
+        if self.spec.resolution > 0:
+            readings = np.round(readings / self.spec.resolution) * self.spec.resolution
+        return readings.mean(axis=-1)

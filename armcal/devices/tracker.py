@@ -10,10 +10,19 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from typing import ClassVar, Literal
+
+from pydantic import Field
+
 from armcal.devices.base import Channel, DeviceModel, Key, declared
+from armcal.effects.library import EffectSpec
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
-from armcal.spec.device import Tracker
+from armcal.kinematics.transforms import POSE_FIELDS, pose_from_matrix, rigid_registration
+from armcal.spec.base import ScaleParam, fixed
+from armcal.spec.starter import mm, flange_point, random_poses
+from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, AngleSigma, DeviceSpec, LengthSigma
+from armcal.spec.robot import Pose
 
 POSITION = tuple(Channel(c, "length") for c in ("x", "y", "z"))
 ORIENTATION = tuple(Channel(c, "angle") for c in ("rx", "ry", "rz"))
@@ -27,8 +36,63 @@ def intrinsic_xyz(R):
     return rx, ry, rz
 
 
+class Tracker(DeviceSpec):
+    """Laser tracker / CMM: 3D point (and optionally orientation) of a target."""
+
+    type: Literal["tracker"]
+    targets: list[str] = Field(min_length=1, description="names of robot targets measured")
+    robot_base: Pose = Pose()
+    noise: LengthSigma = Field(description="position noise sigma per coordinate, or auto (estimated from the data)")
+    orientation: bool = Field(False, description="the data also hold the target's orientation rx, ry, rz")
+    orientation_noise: AngleSigma | None = Field(None, description="orientation noise sigma (needed with orientation), or auto")
+    estimate_noise: bool = Field(False, description=ESTIMATE_HELP)
+    noise_groups: list[Literal["kind", "target"]] = Field(["kind"], description=GROUPS_HELP)
+    scale: ScaleParam = fixed(1.0)
+
+    def noise_fields(self) -> tuple[str, ...]:
+        return ("noise", "orientation_noise") if self.orientation else ("noise",)
+
+    procedures: ClassVar[tuple[str, ...]] = ("poses", "circle_point")
+    instrument_effects: ClassVar[tuple[str, ...]] = ("sensor_scale",)
+    fixes_positions: ClassVar[bool] = True
+    reads_positions: ClassVar[bool] = True
+    locates_targets: ClassVar[bool] = True
+
+    def sees_orientation(self) -> bool:
+        return self.orientation
+
+    def check(self, spec):
+        yield from super().check(spec)
+        if self.orientation and self.orientation_noise is None:
+            yield ("device", "orientation_noise"), "a tracker that measures orientation needs orientation_noise (its sigma)"
+
+    def parameter_location(self, name: str) -> list[str]:
+        return ["device", "scale"] if name == "tracker.scale" else super().parameter_location(name)
+
+    @staticmethod
+    def starter(dof: int, home: list[float], s: float) -> tuple[list[str], list[str]]:
+        """`armcal new`\'s targets and sections (``dof`` joints, ``s`` times the PUMA 560\'s size): A tracker in front of the robot, facing it; random poses."""
+        return [flange_point(dof, "reflector")], [
+            "device:",
+            "  type: tracker",
+            "  targets: [reflector]",
+            "  # Robot base in the tracker frame (placeholder: tracker in front of the robot, facing it);",
+            "  # free, identified with the robot.",
+            f"  robot_base: {{x: {mm(max(3000.0, 3000.0 * s))}, y: 0, z: 0, rz: 180, ry: 0, rx: 0}}",
+            "  noise: 0.025   # mm, the tracker's stated 1-sigma",
+            "procedure:",
+            *random_poses(150, 1),
+            "validation:",
+            *random_poses(75, 2),
+        ]
+
+    def describe(self, length) -> tuple[str, list[str]]:
+        return "laser tracker" + (" (position and orientation)" if self.orientation else ""), [f"targets {', '.join(self.targets)}"]
+
+
 class TrackerModel(DeviceModel):
     type = "tracker"
+    section = Tracker
 
     def __init__(self, spec: Tracker):
         self.spec = spec
@@ -61,3 +125,24 @@ class TrackerModel(DeviceModel):
 
     def noise_kind(self, field: str) -> str:
         return "orientation" if field == "orientation_noise" else "position"
+
+    def reading_columns(self, header: list[str]) -> tuple[dict[str, str], dict[str, str]]:
+        return {c.name: c.kind for c in self.channels(())}, {}
+
+    def candidate_effects(self, free: set[str]) -> list[EffectSpec]:
+        return [] if "tracker.scale" in free else [EffectSpec("sensor_scale")]
+
+    def registered(self, theta: np.ndarray, names: tuple[str, ...], free: set[str], kinematics, data) -> np.ndarray | None:
+        """A free tracker-to-base transform registered from the data: the rigid registration (Kabsch) of the nominal
+        model's target positions onto the measured ones; components the spec holds keep their values."""
+        if not any(f"robot_base.{f}" in free for f in POSE_FIELDS):
+            return None
+        nominal, measured = [], []
+        for key, rows in data.groups().items():
+            nominal.append(kinematics.target_poses(key[0], data.q[rows])[:, :3, 3])
+            measured.append(np.stack([data.readings[c][rows] for c in "xyz"], axis=1))
+        registered = theta.copy()
+        for field, value in zip(POSE_FIELDS, pose_from_matrix(rigid_registration(np.concatenate(nominal), np.concatenate(measured)))):
+            if f"robot_base.{field}" in free:
+                registered[names.index(f"robot_base.{field}")] = value
+        return registered

@@ -42,10 +42,6 @@ INDEPENDENT = 1e-6  # norm a unit deflection pattern must keep off those before 
 SILENT = 1e-9  # a pattern below this fraction of the joint's largest is no deflection at all
 
 
-def _device_free(device: DeviceModel, prefix: str) -> bool:
-    return any(e.free for e in device.parameters.entries if e.name.startswith(prefix))
-
-
 def independent_terms(patterns: np.ndarray, terms: tuple[str, ...]) -> tuple[str, ...]:
     """The terms whose (N,) columns of ``patterns`` are independent of the columns kept before them."""
     norms = np.linalg.norm(patterns, axis=0)
@@ -127,14 +123,6 @@ def candidates(
         out.append(EffectSpec("thermal_drift", source="temperature"))
     elif "t" in data.extras:
         out.append(EffectSpec("thermal_drift", source="time"))
-    lengths = [c for key in dict.fromkeys(data.keys) for c in device.channels(key) if c.kind == "length"]
-    if lengths and device.type in ("sonic_digitizer", "tracker") and not _device_free(device, f"{device.type.split('_')[0]}.scale"):
-        out.append(EffectSpec("sensor_scale"))
-    if device.type == "sonic_digitizer" and getattr(device, "mode", "") == "ranges":
-        out += [EffectSpec("range_bias", microphone=m) for m in device.microphones]
-    if device.type == "ballbar":
-        if not _device_free(device, "bar.length"):
-            out.append(EffectSpec("ballbar_length"))
-        out += [EffectSpec("pivot_offset", pivot=p) for p in device.spec.pivots if not _device_free(device, f"pivot.{p}.")]
+    out += device.candidate_effects({e.name for e in device.parameters.entries if e.free})
     taken = {e.id for e in in_model}
     return [c for c in out if c.id not in taken and (c.type not in OPT_IN if allowed is None else c.type in allowed)]

@@ -30,29 +30,18 @@ from scipy.special import chdtrc
 from armcal.diagnose.score import ABSORBED
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.kinematics.parallel import PARALLEL_DEG
+from armcal.results.calibrated import yaml_path
 
 SHOWN = 4  # held groups named at most
 
 
-def spec_key(name: str, joint_names: list[str], device_type: str) -> tuple[tuple, str]:
-    """The spec location (loader loc) and the dotted key of a parameter name (kinematics/params.py, devices/)."""
-    head, _, field = name.rpartition(".")
-    parts = head.split(".")
-    if parts[0] in ("base", "tool"):
-        return ("robot", parts[0], field), f"robot.{parts[0]}.{field}"
-    if parts[0] in joint_names:
-        i = joint_names.index(parts[0])
-        return ("robot", "joints", i, field), f"robot.joints[{i}].{field} ({parts[0]})"
-    if parts[0] == "robot_base":
-        return ("device", "robot_base", field), f"device.robot_base.{field}"
-    if parts[0] in ("pivot", "mic", "station"):
-        section = {"pivot": "pivots", "mic": "microphones", "station": "stations"}[parts[0]]
-        return ("device", section, parts[1], field), f"device.{section}.{parts[1]}.{field}"
-    if head == "bar":
-        return ("device", "length"), "device.length"
-    if head in ("tracker", "sonic"):
-        return ("device", field), f"device.{field}"
-    return ("robot", "targets", head, field), f"robot.targets.{head}.{field}"
+def spec_key(name: str, spec) -> tuple[tuple, str]:
+    """The spec location (loader loc) and the dotted key of a parameter name, e.g. robot.joints[0].beta (j1)."""
+    path = yaml_path(name, spec)
+    key = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in path).lstrip(".")
+    if path[:2] == ["robot", "joints"]:
+        key += f" ({spec.robot.joint_names()[path[2]]})"
+    return tuple(path), key
 
 
 def held_groups(parameters, held: set[str]) -> dict[str, list[int]]:
@@ -93,7 +82,7 @@ def likely_causes(loaded, calibration) -> list[dict]:
     for group, columns, drop, k, p in sorted(tests, key=lambda t: -t[2]):
         if p > NOISE_CHECK_LEVEL / max(len(tests), 1) or len(causes) >= SHOWN:
             continue
-        loc, key = spec_key(names[columns[0]], joint_names, spec.device.type)
+        loc, key = spec_key(names[columns[0]], spec)
         fields = ", ".join(names[c].rpartition(".")[2] for c in columns)
         what = _what(group, names[columns[0]], spec, joint_names)
         causes.append({

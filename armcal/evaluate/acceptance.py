@@ -33,9 +33,9 @@ def rms_uncertainty(squares: np.ndarray, counts: np.ndarray) -> float:
     return float(math.sqrt(variance) / (2 * math.sqrt(ratio))) if ratio > 0 else 0.0
 
 
-def figures(validation, theta: np.ndarray, device_type: str) -> dict[str, tuple[float, float | None, int]]:
+def figures(validation, theta: np.ndarray, reading_kind: str) -> dict[str, tuple[float, float | None, int]]:
     """Each held-out statistic of the calibrated model: (value, standard uncertainty or None, poses behind it)."""
-    values, samples = readings_by_sample(validation, theta, device_type)
+    values, samples = readings_by_sample(validation, theta, reading_kind)
     stats = residual_stats(values)
     _, slot = np.unique(samples, return_inverse=True)
     poses = int(slot.max()) + 1 if len(slot) else 0
@@ -50,11 +50,11 @@ def figures(validation, theta: np.ndarray, device_type: str) -> dict[str, tuple[
     return found
 
 
-def acceptance_block(acceptance, validation, theta: np.ndarray, device_type: str) -> dict | None:
+def acceptance_block(acceptance, validation, theta: np.ndarray, reading_kind: str) -> dict | None:
     """results.json's acceptance: the figure, the tolerance (device unit), the rule, U where guarded, the verdict."""
     if acceptance is None:
         return None
-    found = figures(validation, theta, device_type) if validation is not None else {}
+    found = figures(validation, theta, reading_kind) if validation is not None else {}
     if acceptance.statistic not in found:
         raise UserError(f"acceptance.statistic: the run has no {acceptance.statistic} (it needs validation data{', of points' if '_3d' in acceptance.statistic else ''})")
     value, u, poses = found[acceptance.statistic]
@@ -67,7 +67,7 @@ def acceptance_block(acceptance, validation, theta: np.ndarray, device_type: str
     return {
         "statistic": acceptance.statistic,
         "value": value,
-        "unit": residual_unit(device_type)[1],
+        "unit": residual_unit(reading_kind)[1],
         "tolerance": acceptance.tolerance,
         "decision_rule": acceptance.decision_rule,
         "expanded_uncertainty": expanded,

@@ -39,10 +39,10 @@ def _binned(x: np.ndarray, values: dict[str, np.ndarray], bins: int = BINS) -> d
     return out
 
 
-def evidence(loaded, kinematics, calibration, data) -> dict:
+def evidence(loaded, kinematics, device, calibration, data) -> dict:
     """The evidence block of results.json (angles in the spec's unit)."""
     spec = loaded.spec
-    kind, unit = residual_unit(spec.device.type)
+    kind, unit = residual_unit(spec.device.reading_kind)
     problem = calibration.problem
     final = calibration.identified.theta
     diagnosis = calibration.diagnosis
@@ -85,8 +85,9 @@ def evidence(loaded, kinematics, calibration, data) -> dict:
     for name in ("t", "temperature"):
         if name in data.extras:
             block[name] = _binned(data.extras[name][samples], series)
-    if spec.device.type == "ballbar":  # Goswami Fig. 3: residuals along the shells' longitudes
-        block["longitude"] = _binned(_longitudes(kinematics, problem, final, data, samples), series)
+    longitudes = _longitudes(kinematics, device, problem, final, data, samples)
+    if longitudes is not None:  # Goswami Fig. 3: residuals along the shells' longitudes
+        block["longitude"] = _binned(longitudes, series)
     return block
 
 
@@ -96,14 +97,17 @@ def _joint_axis(joint_type: str, spec) -> str:
     return f"joint {'angle' if kind == 'angle' else 'position'} ({spec.robot.units.of(kind)})"
 
 
-def _longitudes(kinematics, problem, theta, data, samples) -> np.ndarray:
-    """Longitude (deg) of each sample's sphere around its pivot, from the calibrated model."""
+def _longitudes(kinematics, device, problem, theta, data, samples) -> np.ndarray | None:
+    """Longitude (deg) of each sample's target around the fixed point its reading is taken from (a ball-bar's
+    pivot), from the calibrated model; None for an instrument with no such point."""
     values = problem.parameters.values(theta)
     out = np.empty(len(samples))
     for i, sample in enumerate(samples):
-        pivot, sphere, _ = data.keys[sample]
-        position = kinematics.target_poses(sphere, data.q[sample][None], theta[: problem.n_robot])[0, :3, 3]
-        centre = [values[f"pivot.{pivot}.{c}"] for c in "xy"]
+        key = data.keys[sample]
+        centre = device.centre(key, values)
+        if centre is None:
+            return None
+        position = kinematics.target_poses(device.target(key), data.q[sample][None], theta[: problem.n_robot])[0, :3, 3]
         out[i] = math.degrees(math.atan2(position[1] - centre[1], position[0] - centre[0]))
     return out
 

@@ -15,7 +15,7 @@ def evaluation(loaded, problem, identified, validation_problem) -> dict:
         return {}
     spec = loaded.spec
     units = spec.robot.units
-    device_type = spec.device.type
+    reading_kind = spec.device.reading_kind
     length = lambda v: from_internal(float(v), "length", units.length)  # noqa: E731
     angle = lambda v: from_internal(float(v), "angle", units.angle)  # noqa: E731
     joints = [
@@ -36,12 +36,12 @@ def evaluation(loaded, problem, identified, validation_problem) -> dict:
     ]
     least_squares = identified.least_squares.theta
     comparison = {
-        "s_model_features": before_after(problem, problem.parameters.nominal, identified.theta, device_type)["after"],
-        "least_squares": before_after(problem, problem.parameters.nominal, least_squares, device_type)["after"],
+        "s_model_features": before_after(problem, problem.parameters.nominal, identified.theta, reading_kind)["after"],
+        "least_squares": before_after(problem, problem.parameters.nominal, least_squares, reading_kind)["after"],
     }
     if validation_problem is not None:
         comparison["validation"] = {
-            "s_model_features": before_after(validation_problem, identified.theta, identified.theta, device_type)["after"],
-            "least_squares": before_after(validation_problem, least_squares, least_squares, device_type)["after"],
+            "s_model_features": before_after(validation_problem, identified.theta, identified.theta, reading_kind)["after"],
+            "least_squares": before_after(validation_problem, least_squares, least_squares, reading_kind)["after"],
         }
     return {"s_model_features": {"units": {"length": units.length, "angle": units.angle}, "joints": joints, "pseudo_dh": table, "residuals": comparison}}

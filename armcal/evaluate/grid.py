@@ -142,7 +142,7 @@ def iso9283_evaluation(kinematics, p_design, p_calibrated, truth, units, cube, f
 
 def taught(reached: np.ndarray, desired: np.ndarray) -> np.ndarray:
     """Reached frames seen from a task frame taught by the best rigid fit of the reached vertices (Stone 4.3.5)."""
-    from armcal.identify.start import rigid_registration
+    from armcal.kinematics.transforms import rigid_registration
 
     T = rigid_registration(reached[:, :3, 3], desired[:, :3, 3])
     return np.einsum("ij,njk->nik", T, reached)
@@ -246,8 +246,8 @@ def evaluation_tasks(spec, kinematics, calibrated, truth: dict | None) -> dict:
 
 def measured_point(spec) -> str | None:
     """The one robot target a point-measuring instrument saw, if that is all it saw (the tasks' tool centre point)."""
-    targets = getattr(spec.device, "targets", None)
-    return targets[0] if targets and len(targets) == 1 and spec.device.type in ("tracker", "theodolite") else None
+    targets = spec.device.seen_targets()
+    return targets[0] if len(targets) == 1 and spec.device.locates_targets else None
 
 
 def unobserved_orientation(spec) -> str | None:
@@ -263,9 +263,9 @@ def unobserved_orientation(spec) -> str | None:
     and the relative orientations (vertex k against vertex 1: a constant turn of the last link cancels) are predicted.
     """
     device = spec.device
-    if device.type == "tracker" and device.orientation:
+    if device.sees_orientation():
         return None
-    seen = getattr(device, "targets", None) or getattr(device, "spheres", None) or getattr(spec.procedure, "targets", None) or list(spec.robot.targets)
+    seen = device.seen_targets() or getattr(spec.procedure, "targets", None) or list(spec.robot.targets)
     point = measured_point(spec)
     link = spec.robot.targets[point].link if point else spec.robot.dof
     on_link = [name for name in seen if name in spec.robot.targets and spec.robot.targets[name].link == link]

@@ -69,7 +69,7 @@ class PlanStudy:
         if not len(fresh):
             reasons = "; ".join(f"{count} {why}" for why, count in fresh.dropped.items())
             raise UserError(f"none of {candidates} candidate poses can be read by the instrument ({reasons}); check its placement in the spec")
-        fixed = ps.fixed_readings(spec, self.kinematics)  # first: never exchanged, never written as a pose
+        fixed = ps.fixed_readings(self.device, self.kinematics)  # first: never exchanged, never written as a pose
         self.existing = sum(len(c) for c in (fixed, existing) if c is not None)
         self.candidates = ps.Candidates.joined([fixed, existing, fresh])
         weighted = None  # an oriented region's poses for W (its random designs take any orientation)
@@ -198,9 +198,7 @@ def accuracy_curve(study: PlanStudy, counts, runs: int, factors=(1,), criteria=(
 
 def accuracy_label(spec: Spec, study: PlanStudy) -> tuple[str, str, float]:
     """What a held-out accuracy figure is, its unit, and the factor from the study's values (mm, rad) to that unit."""
-    metric = {"ballbar": "bar-length error", "theodolite": "angle error (azimuth, elevation)"}.get(
-        spec.device.type, "3D position error of the targets (instrument frame)"
-    )
+    metric = spec.device.held_out_metric
     unit, scale = ("mm", 1.0) if study.information.metric == "length" else ("arcsec", from_internal(1.0, "angle", "arcsec"))
     where = "" if study.region is None else f" in the working region ({study.region.name}, {'the task' if study.region.oriented else 'any'} orientation)"
     definition = (f"RMS {metric} at {HELD_OUT} independent held-out poses{where}: the model calibrated from the plan's "

@@ -11,19 +11,19 @@ from armcal.units import ANGLE_UNITS, from_internal
 ARCSEC = ANGLE_UNITS["arcsec"]
 
 
-def residual_unit(device_type: str) -> tuple[str, str]:
-    """(kind of the readings summarised, unit shown): angles in arc-seconds for theodolites, else mm."""
-    return ("angle", "arcsec") if device_type == "theodolite" else ("length", "mm")
+def residual_unit(reading_kind: str) -> tuple[str, str]:
+    """(kind of the readings summarised, unit shown): angles in arc-seconds (a theodolite's), lengths in mm."""
+    return ("angle", "arcsec") if reading_kind == "angle" else ("length", "mm")
 
 
-def readings_residuals(problem: Problem, theta: np.ndarray, device_type: str) -> np.ndarray:
+def readings_residuals(problem: Problem, theta: np.ndarray, reading_kind: str) -> np.ndarray:
     """Predicted minus measured readings of the summarised kind, in the unit shown (spec pseudo-observations left out)."""
-    return readings_by_sample(problem, theta, device_type)[0]
+    return readings_by_sample(problem, theta, reading_kind)[0]
 
 
-def readings_by_sample(problem: Problem, theta: np.ndarray, device_type: str) -> tuple[np.ndarray, np.ndarray]:
+def readings_by_sample(problem: Problem, theta: np.ndarray, reading_kind: str) -> tuple[np.ndarray, np.ndarray]:
     """readings_residuals, and the sample (pose) each reading belongs to."""
-    kind, unit = residual_unit(device_type)
+    kind, unit = residual_unit(reading_kind)
     r, _ = problem.evaluate(theta)
     residual = problem.residuals
     chosen = (np.array(residual.kind) == kind) & (residual.sample >= 0)
@@ -31,10 +31,10 @@ def readings_by_sample(problem: Problem, theta: np.ndarray, device_type: str) ->
     return (values / ARCSEC if unit == "arcsec" else values), residual.sample[chosen]
 
 
-def before_after(problem: Problem, start: np.ndarray, theta: np.ndarray, device_type: str) -> dict:
+def before_after(problem: Problem, start: np.ndarray, theta: np.ndarray, reading_kind: str) -> dict:
     return {
-        "before": residual_stats(readings_residuals(problem, start, device_type)),
-        "after": residual_stats(readings_residuals(problem, theta, device_type)),
+        "before": residual_stats(readings_residuals(problem, start, reading_kind)),
+        "after": residual_stats(readings_residuals(problem, theta, reading_kind)),
     }
 
 

@@ -42,13 +42,13 @@ def summarize(
     loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray, tasks: dict, evidence: dict, plots: list[str], measured: dict
 ) -> Results:
     spec = loaded.spec
-    device_type = spec.device.type
-    _, unit = residual_unit(device_type)
+    reading_kind = spec.device.reading_kind
+    _, unit = residual_unit(reading_kind)
     problem, identified = calibration.problem, calibration.identified
     result = identified.least_squares
     start = calibration.start
-    calibration_pair = before_after(problem, start, identified.theta, device_type)
-    validation_pair = before_after(calibration.validation, start, identified.theta, device_type) if calibration.validation else None
+    calibration_pair = before_after(problem, start, identified.theta, reading_kind)
+    validation_pair = before_after(calibration.validation, start, identified.theta, reading_kind) if calibration.validation else None
     names = reported_names(calibration)
     identified_names = set(result.identifiability.base) if identified.features is None else _changed(problem, identified.theta)
     entries = [(e, v, s) for e, v, s in zip(problem.parameters.entries, identified.theta, identified.std) if e.name in names]
@@ -102,7 +102,7 @@ def summarize(
                      "causes": likely_causes(loaded, calibration)},
         correlations=[list(c) for c in uncertainty.correlations],
         campaign=measured,
-        acceptance=acceptance_block(spec.acceptance, calibration.validation, identified.theta, device_type),
+        acceptance=acceptance_block(spec.acceptance, calibration.validation, identified.theta, reading_kind),
         held_out_check=held_out_check(problem, calibration.validation, result, identified.theta) if identified.features is None else None,
     )
 
@@ -174,10 +174,10 @@ def effect_result(loaded: LoadedSpec, effect: EffectSpec, problem, theta: np.nda
 
 def diagnosis_block(loaded: LoadedSpec, calibration: Calibration) -> dict:
     diagnosis: Diagnosis = calibration.diagnosis
-    device_type = loaded.spec.device.type
+    reading_kind = loaded.spec.device.reading_kind
     problem, validation = calibration.problem, calibration.validation
     final_std = calibration.identified.std
-    rms = lambda pr, theta: residual_stats(readings_residuals(pr, theta, device_type))["rms"] if pr else None  # noqa: E731
+    rms = lambda pr, theta: residual_stats(readings_residuals(pr, theta, reading_kind))["rms"] if pr else None  # noqa: E731
     rounds = []
     for round_ in diagnosis.rounds:
         rounds.append(

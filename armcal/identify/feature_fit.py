@@ -29,7 +29,7 @@ def check_applicable(spec: Spec) -> None:
         raise UserError("fit.method s_model_features needs a circle_point procedure (Stone 6.4)")
     if not isinstance(spec.robot, DHRobot):
         raise UserError(f"fit.method s_model_features identifies a dh robot, not {spec.robot.convention}")
-    if spec.device.type not in ("sonic_digitizer", "tracker"):
+    if not spec.device.fixes_positions:
         raise UserError(f"fit.method s_model_features needs measured target positions, not a {spec.device.type}")
 
 

@@ -15,9 +15,8 @@ import numpy as np
 
 from armcal.dataio.measurements import Measurements
 from armcal.identify.problem import Problem
-from armcal.identify.start import POSE, rigid_registration
 from armcal.kinematics.compiler import KinematicModel
-from armcal.kinematics.transforms import pose_from_matrix
+from armcal.kinematics.transforms import POSE_FIELDS, pose_from_matrix, rigid_registration
 
 
 @dataclass(frozen=True)
@@ -31,7 +30,7 @@ class MovedInstrument(Problem):
     def registered(self, theta: np.ndarray) -> np.ndarray:
         """theta with the instrument-to-base transform fitted to these data."""
         names = self.parameters.names
-        columns = [names.index(f"robot_base.{f}") for f in POSE]
+        columns = [names.index(f"robot_base.{f}") for f in POSE_FIELDS]
         theta = np.array(theta, dtype=float)
         p = theta[: self.n_robot]
         predicted, measured = [], []

@@ -23,7 +23,6 @@ import numpy as np
 
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key
-from armcal.devices.theodolite import BAR_LENGTH, TheodoliteModel
 from armcal.effects.model import EffectSet, extras_matrix
 from armcal.identify.compiled import compiled
 from armcal.kinematics.compiler import KinematicModel
@@ -190,8 +189,8 @@ def build_problem(
     parameters = combined_parameters(kinematics, device, effects)
     samples, channels, kinds, keys, sigmas, measured = [], [], [], [], [], []
     key_rows = data.groups()
-    if isinstance(device, TheodoliteModel) and device.spec.scale_bar is not None:
-        key_rows[BAR_LENGTH] = np.array([-1])
+    given = device.pseudo_observations()  # readings the spec gives, at no sample
+    key_rows.update({key: np.array([-1]) for key in given})
     canonical = sorted(key_rows, key=str)  # one library serves every data set with the same keys
     functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, effects, k) for k in canonical])))
     sizes = (len(kinematics.parameters), len(device.parameters), len(effects.parameters))
@@ -199,8 +198,8 @@ def build_problem(
     blocks = []
     for key, rows in key_rows.items():
         key_channels = device.channels(key)
-        if key == BAR_LENGTH:  # the bar's calibrated length, a pseudo-observation from the spec
-            y = np.array([[device.spec.scale_bar.length]])
+        if key in given:
+            y = np.array([given[key]], dtype=float)
             Q, X = np.zeros((1, kinematics.dof)), np.zeros((1, extras.shape[1]))
         else:
             y = np.stack([data.readings[c.name][rows] for c in key_channels], axis=1)

@@ -91,3 +91,17 @@ def pose_from_matrix(T: np.ndarray) -> tuple[float, float, float, float, float, 
     ry = float(np.arctan2(-M[2, 0], M[0, 0]))
     rx = float(np.arctan2(-M[1, 2], M[1, 1]))
     return float(T[0, 3]), float(T[1, 3]), float(T[2, 3]), rz, ry, rx
+
+
+POSE_FIELDS = ("x", "y", "z", "rz", "ry", "rx")  # the fields of a spec pose, in xyz_zyx's order
+
+
+def rigid_registration(source: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """The rigid transform (4x4) that best maps points ``source`` (N, 3) onto ``target`` (Kabsch)."""
+    a, b = source.mean(axis=0), target.mean(axis=0)
+    U, _, Vt = np.linalg.svd((source - a).T @ (target - b))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
+    R = Vt.T @ D @ U.T
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, b - R @ a
+    return T

@@ -43,7 +43,7 @@ from armcal.identify.problem import build_problem
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel
 from armcal.procedures.plan import Plan
-from armcal.procedures.poses import pose_keys, scale_bar_sightings
+from armcal.procedures.poses import fixed_samples
 from armcal.spec.model import Spec
 from armcal.spec.procedure import Shells
 
@@ -92,22 +92,22 @@ class Candidates:
 def candidate_poses(spec: Spec, kinematics: KinematicModel, device: DeviceModel, count: int, seed: int) -> Candidates:
     """``count`` random candidate poses of the spec's instrument, those it cannot read dropped (module doc)."""
     rng = np.random.default_rng(seed)
-    if spec.device.type == "ballbar":
+    if device.keyed_poses:
         return _ballbar_candidates(spec, kinematics, device, count, rng)
     Q = rng.uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (count, kinematics.dof))
-    return keyed_candidates(Q, spec, kinematics, device)
+    return keyed_candidates(Q, kinematics, device)
 
 
-def fixed_readings(spec: Spec, kinematics: KinematicModel) -> Candidates | None:
-    """What every design of the spec's instrument reads besides its poses, as one entry to keep first in a
-    design: a theodolite's scale-bar sightings (with the bar's length, a pseudo-observation); None if nothing."""
-    bar = scale_bar_sightings(spec.device, kinematics.dof)
-    return None if bar is None else Candidates(np.zeros((1, kinematics.dof)), (bar.keys,), {})
+def fixed_readings(device: DeviceModel, kinematics: KinematicModel) -> Candidates | None:
+    """What every design of the instrument reads besides its poses, as one entry to keep first in a design: a
+    theodolite's scale-bar sightings (with the bar's length, a pseudo-observation); None if nothing."""
+    fixed = fixed_samples(device, kinematics.dof)
+    return None if fixed is None else Candidates(np.zeros((1, kinematics.dof)), (fixed.keys,), {})
 
 
-def keyed_candidates(Q: np.ndarray, spec: Spec, kinematics: KinematicModel, device: DeviceModel) -> Candidates:
+def keyed_candidates(Q: np.ndarray, kinematics: KinematicModel, device: DeviceModel) -> Candidates:
     """Poses Q read on every key of the instrument that sees them (tracker, theodolite); unseen poses dropped."""
-    keys = pose_keys(spec.device)
+    keys = device.pose_keys()
     seen = np.array([device.visible(key, kinematics.target_poses(device.target(key), Q)) for key in keys]).reshape(len(keys), len(Q))
     keep = seen.any(axis=0)
     read = tuple(tuple(k for k, s in zip(keys, seen[:, i]) if s) for i in np.flatnonzero(keep))

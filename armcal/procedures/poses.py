@@ -1,11 +1,12 @@
 """Pose lists: random configurations within the joint limits, or joint values from a CSV file.
 
-Every pose is measured on every key the device reads at a pose (each tracker
-target; each theodolite station and target); keys where the instrument cannot
-read the target are dropped. A theodolite scale bar is sighted from every
-station and its length enters once. A ball-bar's pose file names the bar of each
-pose (pivot, sphere, extension columns, as ``armcal plan`` writes them); a pose
-whose length falls outside the LVDT travel is dropped.
+Every pose is measured on every key the instrument reads at a pose
+(DeviceModel.pose_keys: each tracker target; each theodolite station and
+target); keys where the instrument cannot read the target are dropped; what it
+reads with no robot pose is added (fixed_samples: a theodolite's scale-bar
+marks). An instrument that reads each pose on one key (keyed_poses: a ball-bar)
+takes its poses from a file that names the key of each (``armcal plan`` writes
+one); a pose it cannot read (a length outside the LVDT travel) is dropped.
 """
 
 from __future__ import annotations
@@ -16,27 +17,12 @@ import numpy as np
 
 from armcal.dataio.reader import read_pose_file
 from armcal.devices.base import DeviceModel, Key
-from armcal.devices.theodolite import BAR_ENDS
 from armcal.kinematics.compiler import KinematicModel
 from armcal.procedures.plan import Plan
-from armcal.spec.device import Theodolite, Tracker
 from armcal.spec.model import Spec
 from armcal.spec.procedure import Poses
 
-BAR_SIGHTINGS = 3  # repeated sightings of each scale-bar mark per station
-
-
-def pose_keys(device_spec) -> list[Key]:
-    """The keys read at every pose."""
-    if isinstance(device_spec, Theodolite):
-        return [(station, target) for station in device_spec.stations for target in device_spec.targets]
-    if isinstance(device_spec, Tracker):
-        return [(target,) for target in device_spec.targets]
-    raise ValueError(f"a poses procedure needs a tracker or theodolite, not {device_spec.type}")
-
-
 def plan_poses(procedure: Poses, kinematics: KinematicModel, device: DeviceModel, spec: Spec, spec_dir: Path) -> Plan:
-    device_spec = spec.device
     if procedure.file is not None:
         Q, file_keys = read_pose_file(spec_dir / procedure.file, spec)
         if file_keys is not None:
@@ -47,23 +33,21 @@ def plan_poses(procedure: Poses, kinematics: KinematicModel, device: DeviceModel
     keys: list[Key] = []
     rows: list[np.ndarray] = []
     dropped: dict[str, int] = {}
-    for key in pose_keys(device_spec):
+    for key in device.pose_keys():
         visible = device.visible(key, kinematics.target_poses(device.target(key), Q))
         keys += [key] * int(visible.sum())
         rows.append(Q[visible])
         if (~visible).any():
             dropped[f"{'/'.join(key)} not visible"] = int((~visible).sum())
     plan = Plan(tuple(keys), np.concatenate(rows), dropped)
-    bar = scale_bar_sightings(device_spec, kinematics.dof)
-    return plan if bar is None else Plan.join([plan, bar])
+    fixed = fixed_samples(device, kinematics.dof)
+    return plan if fixed is None else Plan.join([plan, fixed])
 
 
-def scale_bar_sightings(device_spec, dof: int) -> Plan | None:
-    """A theodolite's scale-bar marks, sighted BAR_SIGHTINGS times from every station (no robot pose); None without a bar."""
-    if not isinstance(device_spec, Theodolite) or device_spec.scale_bar is None:
-        return None
-    bar_keys = [(station, end) for station in device_spec.stations for end in BAR_ENDS] * BAR_SIGHTINGS
-    return Plan(tuple(bar_keys), np.zeros((len(bar_keys), dof)))
+def fixed_samples(device: DeviceModel, dof: int) -> Plan | None:
+    """What the instrument reads with no robot pose (a theodolite's scale-bar marks); None if nothing."""
+    keys = device.fixed_samples()
+    return Plan(tuple(keys), np.zeros((len(keys), dof))) if keys else None
 
 
 def _keyed_poses(Q: np.ndarray, keys: tuple[Key, ...], kinematics: KinematicModel, device: DeviceModel) -> Plan:

@@ -101,7 +101,7 @@ def region_candidates(spec: Spec, kinematics: KinematicModel, device: DeviceMode
         inside = region.contains(poses[:, :3, 3])
         drawn, outside = drawn + BATCH, outside + int((~inside).sum())
         if inside.any():
-            found.append(ps.keyed_candidates(Q[inside], spec, kinematics, device))
+            found.append(ps.keyed_candidates(Q[inside], kinematics, device))
     if not found:
         return ps.Candidates(np.zeros((0, kinematics.dof)), (), {"outside the working region": outside})
     poses = ps.Candidates.joined(found)
@@ -119,7 +119,7 @@ def _oriented_candidates(spec, kinematics, device, region: Region, count: int, r
         reached = ~np.isnan(Q).any(axis=1)
         tried, unreached = tried + size, unreached + int((~reached).sum())
         if reached.any():
-            found.append(ps.keyed_candidates(Q[reached], spec, kinematics, device))
+            found.append(ps.keyed_candidates(Q[reached], kinematics, device))
     dropped = {"unreachable at the task's orientation": unreached} if unreached else {}
     if not found:
         return ps.Candidates(np.zeros((0, kinematics.dof)), (), dropped)

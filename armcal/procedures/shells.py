@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from armcal.devices.ballbar import BallBarModel
+from armcal.devices.base import DeviceModel
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel
 from armcal.procedures.plan import Plan
@@ -51,7 +51,7 @@ def reach(kinematics: KinematicModel, sphere: str, seed: int = 0) -> tuple[np.nd
     return origin, float(np.max(np.linalg.norm(points - origin, axis=1)))
 
 
-def plan_shells(procedure: Shells, kinematics: KinematicModel, device: BallBarModel, seed: int = 0, angle_unit: str = "deg") -> Plan:
+def plan_shells(procedure: Shells, kinematics: KinematicModel, device: DeviceModel, seed: int = 0, angle_unit: str = "deg") -> Plan:
     values = device.parameters.values(device.parameters.nominal)
     plans = []
     for pairing in procedure.pairings:

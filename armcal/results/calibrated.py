@@ -44,19 +44,7 @@ def yaml_path(name: str, spec: Spec) -> list:
         return ["robot", "links", int(head[1:]) - 1, field]
     if head in robot.targets:
         return ["robot", "targets", head, field]
-    first, _, rest = head.partition(".")
-    device = {
-        "robot_base": ["device", "robot_base"],
-        "mic": ["device", "microphones", rest],
-        "pivot": ["device", "pivots", rest],
-        "station": ["device", "stations", rest, "pose"],
-        "scale_bar": ["device", "scale_bar", rest],
-    }
-    if name in ("bar.length",):
-        return ["device", "length"]
-    if name in ("sonic.scale", "tracker.scale"):
-        return ["device", "scale"]
-    return [*device[first], field]
+    return spec.device.parameter_location(name)
 
 
 def _set(root: CommentedMap, path: list, value: float, held: bool = False, std: float | None = None) -> None:

@@ -43,18 +43,7 @@ def campaign(loaded: LoadedSpec, calibration, validation, simulated: tuple[bool,
     device = spec.device
     length = spec.robot.units.length
     show = lambda v: f"{from_internal(v, 'length', length):g} {length}"  # noqa: E731
-    if device.type == "sonic_digitizer":
-        instrument = "sonic digitizer (slant ranges)"
-        details = [f"microphones {', '.join(device.microphones)}", f"{len(device.calibration_rods)} calibration rods"]
-    elif device.type == "ballbar":
-        instrument = f"telescopic ball-bar, {show(device.length.value)} at mid-travel, travel {show(device.travel)}"
-        details = [f"pivots {', '.join(device.pivots)}", f"spheres {', '.join(device.spheres)}"]
-    elif device.type == "theodolite":
-        instrument = "theodolite network" + (" with scale bar" if device.scale_bar else "")
-        details = [f"stations {', '.join(device.stations)}", f"targets {', '.join(device.targets)}"]
-    else:
-        instrument = "laser tracker" + (" (position and orientation)" if device.orientation else "")
-        details = [f"targets {', '.join(device.targets)}"]
+    instrument, details = device.describe(show)
     temperatures = [d.extras["temperature"] for d in (calibration, validation) if d is not None and "temperature" in d.extras]
     values = np.concatenate(temperatures) if temperatures else None
     return {

@@ -17,12 +17,9 @@ import numpy as np
 
 from armcal.dataio.measurements import Measurements
 from armcal.errors import UserError
-from armcal.spec.device import AUTO
+from armcal.spec.instrument import AUTO
 from armcal.devices import device_model
 from armcal.devices.base import DeviceModel
-from armcal.devices.sonic import SonicModel
-from armcal.devices.theodolite import TheodoliteModel
-from armcal.devices.sound import ROD_NEAR, raw_range, speed_of_sound, vertical
 from armcal.kinematics.compiler import compile_robot
 from armcal.procedures import Plan, plan
 from armcal.effects.library import from_spec, needs
@@ -30,9 +27,6 @@ from armcal.effects.model import EffectSet
 from armcal.simulate.truth import TrueRobot
 from armcal.spec import sections as fx
 from armcal.spec.model import Spec
-
-ROOM_TEMPERATURE = 21.1  # degC, 70 F: the sonic digitizer's nominal conditions
-
 
 @dataclass(frozen=True)
 class Campaign:
@@ -95,7 +89,7 @@ class CampaignSimulator:
                 sets.append(None)
                 continue
             settings = self.settings.model_copy(update={"noise": False}) if name in exact else self.settings
-            measurements, lost[name] = _measure(self.spec, settings, robot, self.device, pd, planned, rng, start)
+            measurements, lost[name] = _measure(settings, robot, self.device, pd, planned, rng, start)
             start = float(measurements.extras["t"][-1]) + self.settings.time_step
             sets.append(measurements)
             dropped[name] = planned.dropped
@@ -111,9 +105,7 @@ def _true_device_parameters(device: DeviceModel, settings: fx.Simulate, effects:
         if entry.free and entry.kind != "scale":
             pd[i] += rng.normal() * (settings.sigma_p if entry.kind == "length" else settings.sigma_o)
     pd = np.array(effects.device_parameter_function(device)(pd, effects.values())).ravel()
-    if isinstance(device, TheodoliteModel):
-        pd = device.with_calibrated_bar(pd)  # the bar is as long as its certificate says
-    return pd
+    return device.true_parameters(pd)
 
 
 def _extras(settings: fx.Simulate, count: int, start: float, rng: np.random.Generator, n: int) -> dict:
@@ -127,7 +119,7 @@ def _extras(settings: fx.Simulate, count: int, start: float, rng: np.random.Gene
     return extras
 
 
-def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned: Plan, rng, start: float) -> tuple[Measurements, dict[str, int]]:
+def _measure(settings, robot: TrueRobot, device: DeviceModel, pd, planned: Plan, rng, start: float) -> tuple[Measurements, dict[str, int]]:
     """The readings of the planned samples on the true robot, and per key how many it could not read (out of the
     instrument's range on the true robot, though the nominal model planned them within it)."""
     count = len(planned)
@@ -147,14 +139,10 @@ def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned:
         values = device.evaluate(key, poses, pd)
         keep[rows] = device.visible(key, poses, pd)
         values = np.array(robot.effects.reading_function(device, key).map(len(rows))(values.T, robot.effects.values())).T
-        if isinstance(device, SonicModel):
-            values, rods = _sonic_physics(spec, settings, device, key, values, poses, pd, rng)
-            for name, column in rods.items():
-                readings.setdefault(name, np.full(count, np.nan))[rows] = column
-        elif settings.noise:
-            values = values + rng.normal(size=values.shape) * device.sigma(key, values) * settings.noise_factor
-            if target is not None:
-                keep[rows] &= device.measurable(key, values)  # the noise carried a reading at the edge out of range
+        values, readable, recorded = device.simulated_readings(key, values, poses, pd, settings, rng)
+        keep[rows] &= readable  # e.g. the noise carried a reading at the edge out of range
+        for name, column in recorded.items():
+            readings.setdefault(name, np.full(count, np.nan))[rows] = column
         if not keep[rows].all():
             lost["-".join(str(k) for k in key if k)] = int((~keep[rows]).sum())
         if target is None:
@@ -168,34 +156,3 @@ def _measure(spec, settings, robot: TrueRobot, device: DeviceModel, pd, planned:
         extras={**{name: value[keep] for name, value in extras.items()}, **{n: c[keep] for n, c in readings.items() if n.startswith("rod_")}},
     )
     return measured, lost
-
-
-def _sonic_physics(spec, settings, device: SonicModel, key, distances, poses, pd, rng):
-    """Raw slant ranges through a vertically stratified air (B-3), N_avg noisy quantised readings averaged."""
-    sonic = spec.device
-    air = settings.temperature[0] if settings.temperature else ROOM_TEMPERATURE
-    microphones = device.nominal_microphones
-    up = vertical(microphones)
-    temperature = lambda height: air + sonic.temperature_gradient * height / 1000.0  # noqa: E731
-    target_speed = speed_of_sound(temperature(device._sensor_points(poses, pd) @ up))
-    raw = np.empty_like(distances)
-    for c, microphone in enumerate(device.microphones):
-        microphone_speed = speed_of_sound(temperature(microphones[microphone] @ up))
-        raw[:, c] = raw_range(distances[:, c], target_speed, microphone_speed, sonic.speed_of_sound)
-    rods = {}
-    for rod in sonic.calibration_rods:
-        speed = speed_of_sound(temperature(microphones[rod.microphone] @ up))
-        for i, distance in enumerate((ROD_NEAR, ROD_NEAR + rod.length), start=1):
-            rods[f"rod_{rod.microphone}_{i}"] = np.full(len(raw), raw_range(distance, speed, speed, sonic.speed_of_sound))
-    averaged = lambda values: _averaged_readings(device, values, rng, settings.noise_factor) if settings.noise else values  # noqa: E731
-    return averaged(raw), {name: averaged(column[:, None])[:, 0] for name, column in rods.items()}
-
-
-def _averaged_readings(device: SonicModel, values: np.ndarray, rng: np.random.Generator, factor: float) -> np.ndarray:
-    """Mean of N_avg readings, each with noise k sigma(range) (7.9, 7.4.3) and quantised to the resolution."""
-    sigma = factor * (device.spec.noise.a * values + device.spec.noise.b)
-    readings = values[..., None] + rng.normal(size=(*values.shape, device.averaging)) * sigma[..., None]
-    resolution = device.spec.resolution
-    if resolution > 0:
-        readings = np.round(readings / resolution) * resolution
-    return readings.mean(axis=-1)

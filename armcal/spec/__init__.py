@@ -1,6 +1,18 @@
-"""Spec language: pydantic models of a calibration spec and their YAML loading."""
+"""Spec language: pydantic models of a calibration spec and their YAML loading.
 
-from armcal.spec.loader import LoadedSpec, load_spec
-from armcal.spec.model import Spec
+``load_spec``, ``LoadedSpec`` and ``Spec`` load on first use: the device section is the
+instruments' (armcal/devices/), whose modules import the spec's building blocks from here.
+"""
 
-__all__ = ["LoadedSpec", "Spec", "load_spec"]
+from __future__ import annotations
+
+import importlib
+
+_EXPORTS = {"LoadedSpec": "armcal.spec.loader", "load_spec": "armcal.spec.loader", "Spec": "armcal.spec.model"}
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'armcal.spec' has no attribute {name!r}")
+    return getattr(importlib.import_module(_EXPORTS[name]), name)

@@ -8,18 +8,14 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
-from armcal.errors import with_article
-from armcal.spec.device import BallBar, SonicDigitizer, Theodolite, Tracker
+from armcal.devices.registry import INSTRUMENTS, accepting
+from armcal.errors import either, with_article
 from armcal.spec.model import Spec
-from armcal.spec.procedure import CirclePoint, Poses, Shells
+from armcal.spec.procedure import CirclePoint
 from armcal.spec.robot import SixParameterRobot
-from armcal.spec.sections import JointBending, JointCompliance, JointCoupling, PivotOffset, RangeBias
+from armcal.spec.sections import JointBending, JointCompliance, JointCoupling
 
 Loc = tuple[str | int, ...]
-DEVICES_OF_EFFECT = {  # instrument-side effects and the devices they act on
-    "sensor_scale": ("sonic_digitizer", "tracker"),  # scales measured lengths
-    "ballbar_length": ("ballbar",),
-}
 Problem = tuple[Loc, str]
 
 
@@ -66,43 +62,26 @@ def _target_refs(spec: Spec, names: list[str], loc: Loc, what: str) -> Iterator[
 
 
 def _device(spec: Spec) -> Iterator[Problem]:
-    device = spec.device
-    if isinstance(device, BallBar):
-        yield from _target_refs(spec, device.spheres, ("device", "spheres"), "sphere")
-    elif isinstance(device, (Theodolite, Tracker)):
-        yield from _target_refs(spec, device.targets, ("device", "targets"), "target")
-        if isinstance(device, Tracker) and device.orientation and device.orientation_noise is None:
-            yield ("device", "orientation_noise"), "a tracker that measures orientation needs orientation_noise (its sigma)"
-    elif isinstance(device, SonicDigitizer):
-        for i, rod in enumerate(device.calibration_rods):
-            if rod.microphone not in device.microphones:
-                yield (
-                    ("device", "calibration_rods", i, "microphone"),
-                    f"microphone '{rod.microphone}' is not in device.microphones",
-                )
+    yield from spec.device.check(spec)
 
 
 def _procedures(spec: Spec) -> Iterator[Problem]:
+    device = spec.device
     for key in ("procedure", "validation"):
         procedure = getattr(spec, key)
+        if procedure is None:
+            continue
+        if procedure.type not in device.procedures:
+            takers = [name for name, model in INSTRUMENTS.items() if procedure.type in model.section.procedures]
+            yield (key, "type"), f"a {procedure.type} procedure needs {with_article(either(takers))} device, not {device.type}"
+            continue
         if isinstance(procedure, CirclePoint):
             yield from _circle_point(spec, procedure, (key,))
-        elif isinstance(procedure, Shells):
-            yield from _shells(spec, procedure, (key,))
-        elif isinstance(procedure, Poses):
-            if isinstance(spec.device, BallBar):
-                if procedure.file is None:
-                    yield (key, "count"), "a ball-bar's poses come from a file with pivot and sphere columns (armcal plan writes one), not count"
-            elif not isinstance(spec.device, Tracker | Theodolite):
-                yield (key, "type"), f"a poses procedure needs a tracker, theodolite or ball-bar, not {spec.device.type}"
-            if (procedure.file is None) == (procedure.count is None):
-                yield (key,), "give either a pose file (file) or a number of random poses (count)"
+        yield from device.check_procedure(procedure, (key,))
 
 
 def _circle_point(spec: Spec, procedure: CirclePoint, loc: Loc) -> Iterator[Problem]:
     robot = spec.robot
-    if not isinstance(spec.device, SonicDigitizer | Tracker):
-        yield (*loc, "type"), f"circle_point needs a device that measures target positions (sonic_digitizer, tracker), not {spec.device.type}"
     if len(procedure.signature) != robot.dof:
         yield (*loc, "signature"), f"needs {robot.dof} joint values, got {len(procedure.signature)}"
     else:
@@ -125,28 +104,14 @@ def _circle_point(spec: Spec, procedure: CirclePoint, loc: Loc) -> Iterator[Prob
             yield (*loc, "points_per_joint"), f"a circle needs at least 3 points, got {n}"
 
 
-def _shells(spec: Spec, procedure: Shells, loc: Loc) -> Iterator[Problem]:
-    device = spec.device
-    if not isinstance(device, BallBar):
-        yield (*loc, "type"), f"shells needs a ballbar device, not {device.type}"
-        return
-    for i, pairing in enumerate(procedure.pairings):
-        if pairing.pivot not in device.pivots:
-            yield (*loc, "pairings", i, "pivot"), f"pivot '{pairing.pivot}' is not in device.pivots"
-        if pairing.sphere not in device.spheres:
-            yield (*loc, "pairings", i, "sphere"), f"sphere '{pairing.sphere}' is not in device.spheres"
-    if procedure.extension is not None and procedure.extension not in device.extension_rods:
-        yield (*loc, "extension"), f"extension rod '{procedure.extension}' is not in device.extension_rods"
-
-
 def _report(spec: Spec) -> Iterator[Problem]:
     acceptance = spec.acceptance
     if acceptance is None:
         return
-    if isinstance(spec.device, Theodolite):
-        yield ("acceptance",), "a theodolite's residuals are angles; acceptance takes a length tolerance (tracker, ball-bar, sonic digitizer)"
-    if acceptance.statistic.endswith("_3d") and not isinstance(spec.device, Tracker):
-        yield ("acceptance", "statistic"), f"{acceptance.statistic} needs measured points (a tracker); use validation_rms or validation_max"
+    if spec.device.reading_kind != "length":
+        yield ("acceptance",), f"a {spec.device.type}'s residuals are {spec.device.reading_kind}s; acceptance takes a length tolerance"
+    if acceptance.statistic.endswith("_3d") and not spec.device.reads_positions:
+        yield ("acceptance", "statistic"), f"{acceptance.statistic} needs measured points (a {_positions()}); use validation_rms or validation_max"
     if spec.data is not None and spec.data.validation is None:
         yield ("acceptance", "statistic"), "acceptance judges held-out figures: add data.validation"
     if spec.diagnose.enabled and spec.diagnose.holdout == "validation":
@@ -155,8 +120,8 @@ def _report(spec: Spec) -> Iterator[Problem]:
 
 def _data(spec: Spec) -> Iterator[Problem]:
     data = spec.data
-    if data is not None and data.instrument_moved and not isinstance(spec.device, Tracker):
-        yield ("data", "instrument_moved"), "re-registering a moved instrument needs a tracker (measured positions)"
+    if data is not None and data.instrument_moved and not spec.device.reads_positions:
+        yield ("data", "instrument_moved"), f"re-registering a moved instrument needs measured positions (a {_positions()})"
 
 
 def _effects(spec: Spec) -> Iterator[Problem]:
@@ -171,26 +136,27 @@ def _effects(spec: Spec) -> Iterator[Problem]:
             if what in seen:
                 yield (*loc, i), f"this {effect.type} effect is already declared as entry {seen[what] + 1}"
             seen.setdefault(what, i)
-            needed = DEVICES_OF_EFFECT.get(effect.type)
+            needed = accepting(effect.type)
             if needed and spec.device.type not in needed:
-                yield (*loc, i, "type"), f"{effect.type} needs {with_article(' or '.join(needed))} device, not {spec.device.type}"
+                yield (*loc, i, "type"), f"{effect.type} needs {with_article(either(needed))} device, not {spec.device.type}"
+            elif needed:
+                yield from spec.device.check_effect(effect, (*loc, i))
             joint = getattr(effect, "joint", None)
             if joint is not None and joint > spec.robot.dof:
                 yield (*loc, i, "joint"), f"joint {joint} does not exist: this robot has joints 1..{spec.robot.dof}"
-            if isinstance(effect, RangeBias) and (
-                not isinstance(spec.device, SonicDigitizer) or effect.microphone not in spec.device.microphones
-            ):
-                yield (*loc, i, "microphone"), f"microphone '{effect.microphone}' is not in device.microphones"
             if isinstance(effect, JointCoupling):
                 yield from _coupling(spec, effect, (*loc, i))
             if isinstance(effect, JointCompliance) and joint is not None and joint <= spec.robot.dof:
                 yield from _compliance(spec, effect, (*loc, i))
             if isinstance(effect, JointBending) and joint is not None and joint <= spec.robot.dof:
                 yield from _bending(spec, effect, (*loc, i), simulated=loc != ("effects",))
-            if isinstance(effect, PivotOffset) and (
-                not isinstance(spec.device, BallBar) or effect.pivot not in spec.device.pivots
-            ):
-                yield (*loc, i, "pivot"), f"pivot '{effect.pivot}' is not in device.pivots"
+
+
+
+def _positions() -> str:
+    """The instruments whose readings are measured positions."""
+    return either([name for name, model in INSTRUMENTS.items() if model.section.reads_positions])
+
 
 
 def _coupling(spec: Spec, effect: JointCoupling, loc: Loc) -> Iterator[Problem]:

@@ -1,0 +1,21 @@
+"""The registry of instruments: one entry per measuring method, its measurement model (which names its spec section).
+
+Nothing outside armcal/devices/ names an instrument: the spec's ``device`` union, the
+data files' columns, the campaign's simulation, the diagnosis' instrument-side
+candidates and the certificate's description all ask the entry of ``device.type``.
+"""
+
+from __future__ import annotations
+
+from armcal.devices.ballbar import BallBarModel
+from armcal.devices.base import DeviceModel
+from armcal.devices.sonic import SonicModel
+from armcal.devices.theodolite import TheodoliteModel
+from armcal.devices.tracker import TrackerModel
+
+INSTRUMENTS: dict[str, type[DeviceModel]] = {model.type: model for model in (SonicModel, BallBarModel, TheodoliteModel, TrackerModel)}
+
+
+def accepting(effect_type: str) -> list[str]:
+    """The instruments an instrument-side effect acts on (none: an effect on the robot's side)."""
+    return [name for name, model in INSTRUMENTS.items() if effect_type in model.section.instrument_effects]

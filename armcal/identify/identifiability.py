@@ -119,8 +119,8 @@ def triangular(J: np.ndarray) -> np.ndarray:
     if len(J) <= p:
         return J
     R = np.zeros((0, p))
-    for first in range(0, len(J), ROWS):
-        R = scipy.linalg.qr(np.vstack([R, J[first : first + ROWS]]), mode="r", check_finite=False)[0][:p]
+    for first in range(0, len(J), ROWS):  # "raw": R of the first p rows (mode "r" returns an R the stack's size)
+        R = scipy.linalg.qr(np.vstack([R, J[first : first + ROWS]]), mode="raw", check_finite=False)[1][:p]
     return R
 
 

@@ -119,8 +119,11 @@ def triangular(J: np.ndarray) -> np.ndarray:
     if len(J) <= p:
         return J
     R = np.zeros((0, p))
-    for first in range(0, len(J), ROWS):  # "raw": R of the first p rows (mode "r" returns an R the stack's size)
-        R = scipy.linalg.qr(np.vstack([R, J[first : first + ROWS]]), mode="raw", check_finite=False)[1][:p]
+    for first in range(0, len(J), ROWS):  # each stack column-major and factorised in place; "raw": R of its first p rows
+        rows = J[first : first + ROWS]
+        stack = np.concatenate([R, rows], out=np.empty((len(R) + len(rows), p), order="F"))
+        R = scipy.linalg.qr(stack, overwrite_a=True, mode="raw", check_finite=False)[1][:p]
+        del stack  # before the next one is made
     return R
 
 

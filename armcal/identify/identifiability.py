@@ -25,10 +25,12 @@ O1 = (s_1 ... s_m)^(1/m) / sqrt(M) (Borm & Menq), directions no parameter can
 carry, such as the overall scale of a network, and, at the solution, the
 condition number and the flat directions of the scaled base Jacobian.
 
-Every quantity here depends on the Jacobian only through its columns' inner products
-(norms, projections, singular values), so a tall Jacobian is first reduced to the
-triangular factor R of its QR decomposition (J^T J = R^T R), taken in row blocks:
-the analysis then costs O(p^3) whatever the number of readings, and no copy of J is made.
+The base choice is made on J itself, group by group: one copy of a group's columns,
+scaled and factorised in place. Every other quantity depends on the Jacobian only
+through its columns' inner products (norms, projections, singular values), so a tall
+Jacobian is first reduced to the triangular factor R of its QR decomposition
+(J^T J = R^T R), taken in row blocks: the rest costs O(p^3) whatever the number of
+readings, and no copy of J is made.
 """
 
 from __future__ import annotations
@@ -65,25 +67,25 @@ def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identi
     roles = np.array([e.role for e in parameters.entries])
     fixed = [(n, held_reason(e)) for n, f, e in zip(names, free, parameters.entries) if not f]
     columns = np.flatnonzero(free & (roles != "effect"))
-    norms = np.linalg.norm(J[:, columns], axis=0)
+    norms = np.array([np.sqrt(np.add.reduce(J[:, c] * J[:, c])) for c in columns])  # column by column: no copy of J
     scale = np.max(norms) if len(norms) else 1.0
     silent = norms <= 1e-12 * scale
     fixed += [(names[c], "does not affect the measurements") for c in columns[silent]]
     columns, norms = columns[~silent], norms[~silent]
-    scaled = J[:, columns]
-    scaled /= norms
+    groups = [g for g in (np.flatnonzero(roles[columns] == role) for role in PRIORITY) if len(g)]
     basis, chosen, dependent = np.zeros((len(J), 0)), [], []
-    for role in PRIORITY:
-        group = np.flatnonzero(roles[columns] == role)
-        if not len(group):
-            continue
-        projected = _off(basis, scaled[:, group]) if basis.shape[1] else scaled[:, group]  # x - 0 is x: no copies
-        Q, R, pivots = scipy.linalg.qr(projected, mode="economic", pivoting=True)
+    for k, group in enumerate(groups):
+        scaled = J[:, columns[group]]  # the group's one copy of J: scaled here, factorised in place (Q overwrites it)
+        scaled /= norms[group]
+        if basis.shape[1]:
+            scaled = _off(basis, scaled)
+        Q, R, pivots = scipy.linalg.qr(scaled, overwrite_a=True, mode="economic", pivoting=True)
         rank = int(np.sum(np.abs(np.diag(R)) > RANK_TOLERANCE))  # unit columns: |R_kk| is the new part's norm
         chosen += list(group[pivots[:rank]])
         dependent += list(group[pivots[rank:]])
-        basis = np.column_stack([basis, Q[:, :rank]])
-        del projected, Q
+        if k + 1 < len(groups):  # the next groups are projected off it
+            basis = np.column_stack([basis, Q[:, :rank]])
+        del scaled, Q
     del basis
     # the choice above is made on J itself (a tie between equal columns is broken by rounding, as it always was);
     # what follows needs only inner products of the columns: R
@@ -117,8 +119,11 @@ def triangular(J: np.ndarray) -> np.ndarray:
     if len(J) <= p:
         return J
     R = np.zeros((0, p))
-    for first in range(0, len(J), ROWS):
-        R = scipy.linalg.qr(np.vstack([R, J[first : first + ROWS]]), mode="r", check_finite=False)[0][:p]
+    for first in range(0, len(J), ROWS):  # each stack column-major and factorised in place; "raw": R of its first p rows
+        rows = J[first : first + ROWS]
+        stack = np.concatenate([R, rows], out=np.empty((len(R) + len(rows), p), order="F"))
+        R = scipy.linalg.qr(stack, overwrite_a=True, mode="raw", check_finite=False)[1][:p]
+        del stack  # before the next one is made
     return R
 
 

@@ -85,18 +85,20 @@ class KeyBlock:
     weighted in numpy straight into the problem's residual vector and Jacobian.
 
     The joint readings and extras are the calls' fixed inputs; theta is the only one
-    that changes. Predicted minus measured, wrapped for angles, over sigma. A call's
-    outputs land in numpy memory through CasADi's function buffer (converting CasADi
-    matrices costs more than evaluating them); the Jacobian's nonzeros of sample k are
-    the k-th run of the per-sample pattern (the mapped output is the samples' Jacobians
-    side by side), so no dense copy of the mapped output is ever made.
+    that changes, repeated for every sample of a call (a map widens each input; an MX
+    wrapper repeating it would hold copies of the outputs too). Predicted minus measured,
+    wrapped for angles, over sigma. A call's outputs land in numpy memory through
+    CasADi's function buffer (converting CasADi matrices costs more than evaluating
+    them); the Jacobian's nonzeros of sample k are the k-th run of the per-sample
+    pattern (the mapped output is the samples' Jacobians side by side), so no dense
+    copy of the mapped output is ever made.
     """
 
-    def __init__(self, function: ca.Function, Q: np.ndarray, X: np.ndarray, sizes: tuple[int, int, int], channels: list[ChannelRows]):
-        self._function, self._sizes = function, sizes
+    def __init__(self, function: ca.Function, Q: np.ndarray, X: np.ndarray, channels: list[ChannelRows]):
+        self._function = function
         self._q = np.ascontiguousarray(Q, dtype=float)  # row k: column k of a mapped call's Q input (column-major)
         self._x = np.ascontiguousarray(X, dtype=float)
-        self._theta = np.zeros(sum(sizes))
+        self._theta = np.zeros((min(CHUNK, len(Q)), function.size1_in(2)))  # row k: theta of a call's sample k
         self._calls: dict[int, tuple] = {}  # samples in a call -> (buffer, run, values, jacobian nonzeros)
         values, jacobian = function.sparsity_out(0), function.sparsity_out(1)
         self._value_rows = np.array(values.get_triplet()[0], dtype=int)
@@ -113,14 +115,10 @@ class KeyBlock:
     def _mapped(self, count: int) -> tuple:
         """The buffer of a call over ``count`` samples (made once; the chunks of that length share it)."""
         if count not in self._calls:
-            n_robot, n_device, _ = self._sizes
-            q, x = ca.MX.sym("Q", self._q.shape[1], count), ca.MX.sym("X", self._x.shape[1], count)
-            theta = ca.MX.sym("theta", len(self._theta))
-            p, pd, pe = theta[:n_robot], theta[n_robot : n_robot + n_device], theta[n_robot + n_device :]
-            mapped = ca.Function("block", [q, x, theta], list(self._function.map(count)(q, x, p, pd, pe)))
+            mapped = self._function.map(count)
             buffer, run = mapped.buffer()
             values, jacobian = np.zeros(mapped.nnz_out(0)), np.zeros(mapped.nnz_out(1))
-            buffer.set_arg(2, memoryview(self._theta))
+            buffer.set_arg(2, memoryview(self._theta[:count].reshape(-1)))
             buffer.set_res(0, memoryview(values))
             buffer.set_res(1, memoryview(jacobian))
             self._calls[count] = (buffer, run, values, jacobian)
@@ -175,11 +173,12 @@ def combined_parameters(kinematics: KinematicModel, device: DeviceModel, effects
 
 
 def _value_and_jacobian(kinematics: KinematicModel, device: DeviceModel, effects: EffectSet, key: Key) -> ca.Function:
-    """(q, x, p, pd, pe) -> (readings, d readings / d [p; pd; pe]) of one sample of a key."""
+    """(q, x, theta) -> (readings, d readings / d theta) of one sample of a key, theta = [p; pd; pe]."""
     h = effects.measurement_function(kinematics, device, key)
-    q, x, p, pd, pe = (ca.SX.sym(n, h.size1_in(i)) for i, n in enumerate(("q", "x", "p", "pd", "pe")))
-    y = h(q, x, p, pd, pe)
-    return ca.Function("hj", [q, x, p, pd, pe], [y, ca.jacobian(y, ca.vertcat(p, pd, pe))])
+    sizes = [h.size1_in(i) for i in range(5)]
+    q, x, theta = ca.SX.sym("q", sizes[0]), ca.SX.sym("x", sizes[1]), ca.SX.sym("theta", sum(sizes[2:]))
+    y = h(q, x, *ca.vertsplit(theta, np.cumsum([0] + sizes[2:]).tolist()))
+    return ca.Function("hj", [q, x, theta], [y, ca.jacobian(y, theta)])
 
 
 def build_problem(
@@ -193,7 +192,6 @@ def build_problem(
     key_rows.update({key: np.array([-1]) for key in given})
     canonical = sorted(key_rows, key=str)  # one library serves every data set with the same keys
     functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, effects, k) for k in canonical])))
-    sizes = (len(kinematics.parameters), len(device.parameters), len(effects.parameters))
     extras = extras_matrix(data.extras, len(data), kinematics.dof)
     blocks = []
     for key, rows in key_rows.items():
@@ -218,7 +216,7 @@ def build_problem(
             sigmas.append(sigma[ok, c])
             measured.append(y[ok, c])
         if taking:
-            blocks.append(KeyBlock(functions[key], Q, X, sizes, taking))
+            blocks.append(KeyBlock(functions[key], Q, X, taking))
     residual = Residual(
         sample=np.concatenate(samples),
         channel=tuple(channels),
@@ -227,7 +225,7 @@ def build_problem(
         sigma=np.concatenate(sigmas),
         measured=np.concatenate(measured),
     )
-    return Problem(parameters, sizes[0], tuple(blocks), residual)
+    return Problem(parameters, len(kinematics.parameters), tuple(blocks), residual)
 
 
 def reweighted(problem: Problem, sigma: np.ndarray) -> Problem:

@@ -25,6 +25,7 @@ from armcal.evaluate.montecarlo import robot_seeds
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_label
 from armcal.fileio import refuse_replacing
 from armcal.procedures import pose_selection as ps
+from armcal.procedures.poses import keyed_plan
 from armcal.procedures.regions import REGIONS, working_region
 from armcal.report.render import write_files
 from armcal.spec import load_spec
@@ -129,7 +130,7 @@ def _existing(spec, extend: Path | None) -> tuple[np.ndarray, tuple | None, ps.C
     if device.keyed_poses:
         if keys is None:
             raise UserError(f"{extend}: a {device.type} plan needs its {' and '.join(device.key_columns)} columns")
-        return Q, keys, ps.bar_candidates(Q, keys, kinematics, device)
+        return Q, keys, ps.keyed_plan_candidates(keyed_plan(Q, keys, kinematics, device))
     return Q, None, ps.keyed_candidates(Q, kinematics, device)
 
 

@@ -17,12 +17,16 @@ from pydantic import Field
 
 from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.effects.library import EffectSpec
+from armcal.kinematics import ik
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.spec.base import Length, LengthParam
 from armcal.spec.starter import mm
 from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
 
 
+DEFAULT_LATITUDES = (10.0, 85.0)  # degrees above a pivot, where the spec has no shells to take the range from
+TRAVEL_USED = 0.8  # of the LVDT travel that random bar lengths spread over (mid-travel +- 40 %)
+TILT = 0.3  # random tilt of a random pose's sphere axis about the shells' axis (norm of a normal perturbation)
 TRAVEL_KEYS = "device.travel, device.length (the reading must stay within travel/2 of mid-travel)"
 
 
@@ -171,3 +175,44 @@ class BallBarModel(DeviceModel):
 
     def centre(self, key: Key, values: dict[str, float]) -> np.ndarray:
         return np.array([values[f"pivot.{key[0]}.{c}"] for c in "xyz"])
+
+    def random_keyed_poses(self, spec, kinematics, count: int, rng: np.random.Generator) -> tuple[np.ndarray, list[Key], dict[str, int]]:
+        """Random points on Goswami's hemispherical shells (Fig. 2) around each pivot of the spec's pairings, at a
+        random latitude within the shells' range, a random longitude and a random bar length within the LVDT travel,
+        the sphere's axis tilted at random about the shells' (halfway between down and the pivot); each solved by the
+        nominal model's inverse kinematics (Stone 5.4, several starts) within the joint limits."""
+        pairs, extension, (low, high) = _pairings(spec)
+        values = self.parameters.values(self.parameters.nominal)
+        pair = rng.integers(len(pairs), size=count)
+        latitude, longitude = rng.uniform(low, high, count), rng.uniform(0.0, 2 * np.pi, count)
+        spread = rng.uniform(-TRAVEL_USED / 2, TRAVEL_USED / 2, count) * self.spec.travel
+        goals, keys = np.zeros((count, 6)), []
+        for i in range(count):
+            pivot, sphere = pairs[pair[i]]
+            key = (pivot, sphere, extension)
+            centre = self.centre(key, values)
+            radius = self.mid_travel_length(key) + spread[i]
+            point = _on_sphere(centre, radius, latitude[i], longitude[i])
+            axis = (centre - point) / radius + [0.0, 0.0, -1.0] + TILT * rng.normal(size=3)
+            goals[i] = [*point, *(axis / np.linalg.norm(axis))]
+            keys.append(key)
+        Q = np.full((count, kinematics.dof), np.nan)
+        for sphere in dict.fromkeys(k[1] for k in keys):
+            rows = np.flatnonzero([k[1] == sphere for k in keys])
+            Q[rows] = ik.solve_from_starts(kinematics, goals[rows], frame=sphere, seed=int(rng.integers(2**31)))
+        return Q, keys, {}
+
+
+def _pairings(spec) -> tuple[list[tuple[str, str]], str | None, tuple[float, float]]:
+    """The pivot/sphere pairs, extension rod and latitude range (rad) of the spec's shells, else every pair."""
+    shells = next((p for p in (spec.procedure, spec.validation) if getattr(p, "type", None) == "shells"), None)
+    if shells is None:
+        pairs = [(pivot, sphere) for pivot in spec.device.pivots for sphere in spec.device.spheres]
+        return pairs, None, tuple(np.radians(DEFAULT_LATITUDES))
+    pairs = [(p.pivot, p.sphere) for p in shells.pairings]
+    return pairs, shells.extension, (min(shells.latitudes), max(shells.latitudes))
+
+
+def _on_sphere(centre: np.ndarray, radius: float, latitude: float, longitude: float) -> np.ndarray:
+    """The point at ``latitude``, ``longitude`` (rad) on the sphere of ``radius`` about ``centre``."""
+    return centre + radius * np.array([np.cos(latitude) * np.cos(longitude), np.cos(latitude) * np.sin(longitude), np.sin(latitude)])

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import copy
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache
 from types import MappingProxyType
 
@@ -86,6 +86,12 @@ class DeviceModel(ABC):
     def pose_keys(self) -> list[Key]:
         """The keys read at every pose of a pose list."""
         return [(target,) for target in self.spec.targets]
+
+    def random_keyed_poses(self, spec, kinematics, count: int, rng: np.random.Generator) -> tuple[np.ndarray, list[Key], dict[str, int]]:
+        """For an instrument that reads each pose on one key (keyed_poses): ``count`` random poses where the nominal
+        robot puts its target for a key to read (inverse kinematics), NaN rows where none was found; their keys; and
+        the poses dropped before solving, by reason."""
+        raise NotImplementedError(f"a {self.type} reads every pose on each of its keys")
 
     def fixed_samples(self) -> list[Key]:
         """Keys a pose list adds, read with no robot pose (e.g. a theodolite's scale-bar marks)."""
@@ -211,9 +217,14 @@ class DeviceModel(ABC):
                 out.append((line, channels[0].name, "reading outside the instrument's range (travel or range limits)"))
         return out
 
+    contact: bool = False  # its readings are a contact's residuals (a ball in its socket): zero at every recorded pose
+
     def prepare(self, measurements):
-        """Readings as the model predicts them (e.g. raw ranges compensated); unchanged by default."""
-        return measurements
+        """Readings as the model predicts them: a contact's zeros (its data files hold none); unchanged by default."""
+        if not self.contact:
+            return measurements
+        zeros = {c.name: np.zeros(len(measurements.q)) for key in dict.fromkeys(measurements.keys) for c in self.channels(key)}
+        return replace(measurements, readings={**zeros, **measurements.readings})
 
     def visible(self, key: Key, poses: np.ndarray, pd: np.ndarray | None = None) -> np.ndarray:
         """Which true target poses (N, 4, 4) give a valid reading (N,)."""

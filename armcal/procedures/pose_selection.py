@@ -3,11 +3,9 @@
 Candidates (``candidate_poses``) are configurations the instrument can read:
   - tracker and theodolite: random configurations uniform within the joint limits, each kept with the keys
     (targets, stations) the instrument reads there (range, line of sight: ``DeviceModel.visible``);
-  - ball-bar: random points on Goswami's hemispherical shells (Fig. 2) around each pivot of the spec's pairings,
-    at a random latitude within the shells' range, a random longitude and a random bar length within the LVDT
-    travel, the sphere's axis tilted at random about the shells' (halfway between down and the pivot); each
-    solved by the nominal model's inverse kinematics (Stone 5.4, several starts) within the joint limits, kept
-    where the length lies within the travel.
+  - an instrument that reads each pose on one key (a ball-bar): the poses it draws and solves by inverse
+    kinematics (DeviceModel.random_keyed_poses: a ball-bar's random points on Goswami's hemispherical shells,
+    Fig. 2), kept where it can read them (the length within the LVDT travel).
 Every candidate dropped is counted with its reason.
 
 Information (``information``): the weighted Jacobian of the readings (each row over its noise sigma, so
@@ -40,18 +38,13 @@ from armcal.effects.library import from_spec
 from armcal.effects.model import EffectSet
 from armcal.identify.identifiability import Identifiability, analyse
 from armcal.identify.problem import build_problem
-from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel
 from armcal.procedures.plan import Plan
-from armcal.procedures.poses import fixed_samples
+from armcal.procedures.poses import fixed_samples, random_keyed_plan
 from armcal.spec.model import Spec
-from armcal.spec.procedure import Shells
 
 RIDGE = 1e-6  # of the average information per candidate (column-scaled), added while M is singular
 EXCHANGE_PASSES = 20  # at most; a pass that swaps nothing ends the exchange
-DEFAULT_LATITUDES = (10.0, 85.0)  # degrees above a pivot, where the spec has no shells to take the range from
-TRAVEL_USED = 0.8  # of the LVDT travel that candidate bar lengths spread over (mid-travel +- 40 %)
-TILT = 0.3  # random tilt of a candidate's sphere axis about the shells' axis (norm of a normal perturbation)
 
 
 @dataclass(frozen=True)
@@ -93,7 +86,7 @@ def candidate_poses(spec: Spec, kinematics: KinematicModel, device: DeviceModel,
     """``count`` random candidate poses of the spec's instrument, those it cannot read dropped (module doc)."""
     rng = np.random.default_rng(seed)
     if device.keyed_poses:
-        return _ballbar_candidates(spec, kinematics, device, count, rng)
+        return _keyed_candidates(spec, kinematics, device, count, rng)
     Q = rng.uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (count, kinematics.dof))
     return keyed_candidates(Q, kinematics, device)
 
@@ -115,55 +108,15 @@ def keyed_candidates(Q: np.ndarray, kinematics: KinematicModel, device: DeviceMo
     return Candidates(Q[keep], read, dropped)
 
 
-def bar_candidates(Q: np.ndarray, keys: tuple[Key, ...], kinematics: KinematicModel, device: DeviceModel) -> Candidates:
-    """Ball-bar poses with their keys (a plan file's), those outside the LVDT travel dropped."""
-    ok = np.ones(len(Q), dtype=bool)
-    for key in dict.fromkeys(keys):
-        rows = np.flatnonzero([k == key for k in keys])
-        ok[rows] = device.visible(key, kinematics.target_poses(device.target(key), Q[rows]))
-    dropped = {"length outside the LVDT travel": int((~ok).sum())} if (~ok).any() else {}
-    return Candidates(Q[ok], tuple((k,) for k, good in zip(keys, ok) if good), dropped)
+def _keyed_candidates(spec: Spec, kinematics: KinematicModel, device: DeviceModel, count: int, rng: np.random.Generator) -> Candidates:
+    """Random poses of an instrument that reads each pose on one key (the instrument draws and solves them), those it
+    cannot read dropped."""
+    return keyed_plan_candidates(random_keyed_plan(spec, kinematics, device, count, rng))
 
 
-def _pairings(spec: Spec) -> tuple[list[tuple[str, str]], str | None, tuple[float, float]]:
-    """The pivot/sphere pairs, extension rod and latitude range (rad) of the spec's shells, else every pair."""
-    shells = next((p for p in (spec.procedure, spec.validation) if isinstance(p, Shells)), None)
-    if shells is None:
-        pairs = [(pivot, sphere) for pivot in spec.device.pivots for sphere in spec.device.spheres]
-        return pairs, None, tuple(np.radians(DEFAULT_LATITUDES))
-    pairs = [(p.pivot, p.sphere) for p in shells.pairings]
-    return pairs, shells.extension, (min(shells.latitudes), max(shells.latitudes))
-
-
-def _ballbar_candidates(spec: Spec, kinematics: KinematicModel, device: DeviceModel, count: int, rng: np.random.Generator) -> Candidates:
-    pairs, extension, (low, high) = _pairings(spec)
-    values = device.parameters.values(device.parameters.nominal)
-    pair = rng.integers(len(pairs), size=count)
-    latitude, longitude = rng.uniform(low, high, count), rng.uniform(0.0, 2 * np.pi, count)
-    spread = rng.uniform(-TRAVEL_USED / 2, TRAVEL_USED / 2, count) * spec.device.travel
-    goals, keys = np.zeros((count, 6)), []
-    for i in range(count):
-        pivot, sphere = pairs[pair[i]]
-        key = (pivot, sphere, extension)
-        centre = np.array([values[f"pivot.{pivot}.{c}"] for c in "xyz"])
-        radius = device.mid_travel_length(key) + spread[i]
-        point = _on_sphere(centre, radius, latitude[i], longitude[i])
-        axis = (centre - point) / radius + [0.0, 0.0, -1.0] + TILT * rng.normal(size=3)
-        goals[i] = [*point, *(axis / np.linalg.norm(axis))]
-        keys.append(key)
-    Q = np.full((count, kinematics.dof), np.nan)
-    for sphere in dict.fromkeys(k[1] for k in keys):
-        rows = np.flatnonzero([k[1] == sphere for k in keys])
-        Q[rows] = ik.solve_from_starts(kinematics, goals[rows], frame=sphere, seed=int(rng.integers(2**31)))
-    reached = ~np.isnan(Q).any(axis=1)
-    found = bar_candidates(Q[reached], tuple(k for k, r in zip(keys, reached) if r), kinematics, device)
-    unreached = {"unreachable within the joint limits": int((~reached).sum())} if (~reached).any() else {}
-    return Candidates(found.q, found.keys, {**unreached, **found.dropped})
-
-
-def _on_sphere(centre: np.ndarray, radius: float, latitude: float, longitude: float) -> np.ndarray:
-    """The point at ``latitude``, ``longitude`` (rad) on the sphere of ``radius`` about ``centre``."""
-    return centre + radius * np.array([np.cos(latitude) * np.cos(longitude), np.cos(latitude) * np.sin(longitude), np.sin(latitude)])
+def keyed_plan_candidates(plan: Plan) -> Candidates:
+    """A plan of poses each read on its own key, as candidates."""
+    return Candidates(plan.q, tuple((k,) for k in plan.keys), plan.dropped)
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,9 @@ def plan_poses(procedure: Poses, kinematics: KinematicModel, device: DeviceModel
     if procedure.file is not None:
         Q, file_keys = read_pose_file(spec_dir / procedure.file, spec)
         if file_keys is not None:
-            return _keyed_poses(Q, file_keys, kinematics, device)
+            return keyed_plan(Q, file_keys, kinematics, device)
+    elif device.keyed_poses:
+        return random_keyed_plan(spec, kinematics, device, procedure.count, np.random.default_rng(procedure.seed))
     else:
         rng = np.random.default_rng(procedure.seed)
         Q = rng.uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (procedure.count, kinematics.dof))
@@ -50,8 +52,18 @@ def fixed_samples(device: DeviceModel, dof: int) -> Plan | None:
     return Plan(tuple(keys), np.zeros((len(keys), dof))) if keys else None
 
 
-def _keyed_poses(Q: np.ndarray, keys: tuple[Key, ...], kinematics: KinematicModel, device: DeviceModel) -> Plan:
-    """Poses each read with its own key (a ball-bar's pose file), in the file's order; unreadable ones dropped."""
+def random_keyed_plan(spec: Spec, kinematics: KinematicModel, device: DeviceModel, count: int, rng: np.random.Generator) -> Plan:
+    """``count`` random poses of an instrument that reads each pose on one key, as it draws and solves them; those
+    the nominal robot cannot reach or the instrument cannot read dropped."""
+    Q, keys, dropped = device.random_keyed_poses(spec, kinematics, count, rng)
+    reached = ~np.isnan(Q).any(axis=1)
+    plan = keyed_plan(Q[reached], tuple(k for k, r in zip(keys, reached) if r), kinematics, device)
+    unreached = {"unreachable within the joint limits": int((~reached).sum())} if (~reached).any() else {}
+    return Plan(plan.keys, plan.q, {**dropped, **unreached, **plan.dropped})
+
+
+def keyed_plan(Q: np.ndarray, keys: tuple[Key, ...], kinematics: KinematicModel, device: DeviceModel) -> Plan:
+    """Poses each read with its own key (a ball-bar's pose file), in their order; those it cannot read dropped."""
     keep = np.zeros(len(Q), dtype=bool)
     dropped: dict[str, int] = {}
     for key in dict.fromkeys(keys):

@@ -124,7 +124,7 @@ def _measure(settings, robot: TrueRobot, device: DeviceModel, pd, planned: Plan,
     instrument's range on the true robot, though the nominal model planned them within it)."""
     count = len(planned)
     extras = _extras(settings, count, start, rng, robot.kinematics.dof)
-    channels = {c.name: c for key in dict.fromkeys(planned.keys) for c in device.channels(key)}
+    channels = {} if device.contact else {c.name: c for key in dict.fromkeys(planned.keys) for c in device.channels(key)}
     readings = {name: np.full(count, np.nan) for name in channels}
     keep = np.ones(count, dtype=bool)
     keys = np.empty(count, dtype=object)
@@ -135,20 +135,25 @@ def _measure(settings, robot: TrueRobot, device: DeviceModel, pd, planned: Plan,
         rows = np.flatnonzero([k == key for k in planned.keys])
         target = device.target(key)
         group_extras = {name: value[rows] for name, value in extras.items()}
-        poses = robot.target_poses(target, planned.q[rows], group_extras) if target else np.repeat(np.eye(4)[None], len(rows), 0)
-        values = device.evaluate(key, poses, pd)
+        true_readings = _true_readings(robot, device, key, pd, group_extras)
+        poses, values = true_readings(planned.q[rows])
         keep[rows] = device.visible(key, poses, pd)
-        values = np.array(robot.effects.reading_function(device, key).map(len(rows))(values.T, robot.effects.values())).T
-        values, readable, recorded = device.simulated_readings(key, values, poses, pd, settings, rng)
-        keep[rows] &= readable  # e.g. the noise carried a reading at the edge out of range
-        for name, column in recorded.items():
-            readings.setdefault(name, np.full(count, np.nan))[rows] = column
+        if device.contact and target is not None:
+            sigma = device.sigma(key, np.zeros_like(values)) * settings.noise_factor
+            offset = rng.normal(size=values.shape) * sigma if settings.noise else np.zeros_like(values)
+            q[rows], held = _held_in_contact(true_readings, planned.q[rows], offset, robot.kinematics.limits)
+            keep[rows] &= held
+        else:
+            values, readable, recorded = device.simulated_readings(key, values, poses, pd, settings, rng)
+            keep[rows] &= readable  # e.g. the noise carried a reading at the edge out of range
+            for name, column in recorded.items():
+                readings.setdefault(name, np.full(count, np.nan))[rows] = column
+            for c, channel in enumerate(device.channels(key)):
+                readings[channel.name][rows] = values[:, c]
         if not keep[rows].all():
             lost["-".join(str(k) for k in key if k)] = int((~keep[rows]).sum())
         if target is None:
             q[rows] = np.nan  # not a robot pose: no joint readings
-        for c, channel in enumerate(device.channels(key)):
-            readings[channel.name][rows] = values[:, c]
     measured = Measurements(
         keys=tuple(keys[keep]),
         q=q[keep],
@@ -156,3 +161,36 @@ def _measure(settings, robot: TrueRobot, device: DeviceModel, pd, planned: Plan,
         extras={**{name: value[keep] for name, value in extras.items()}, **{n: c[keep] for n, c in readings.items() if n.startswith("rod_")}},
     )
     return measured, lost
+
+
+def _true_readings(robot: TrueRobot, device: DeviceModel, key, pd: np.ndarray, extras: dict):
+    """Q (N, n) -> the target's true poses and the true instrument's noise-free readings of ``key`` (its effects included)."""
+    target, effects = device.target(key), robot.effects
+
+    def read(Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        poses = robot.target_poses(target, Q, extras) if target else np.repeat(np.eye(4)[None], len(Q), 0)
+        values = device.evaluate(key, poses, pd)
+        return poses, np.array(effects.reading_function(device, key).map(len(Q))(values.T, effects.values())).T
+
+    return read
+
+
+CONTACT_TOLERANCE = 1e-9  # mm (or rad): a contact's residual the solved joint values leave
+CONTACT_STEP = 1e-6  # rad (or mm): the central-difference step of the contact's joint Jacobian
+
+
+def _held_in_contact(read, Q: np.ndarray, offset: np.ndarray, limits: np.ndarray, iterations: int = 30) -> tuple[np.ndarray, np.ndarray]:
+    """The joint values nearest the planned ``Q`` (N, n) at which the true robot holds its contact (a ball in its
+    socket) up to ``offset`` (N, channels: the seating's noise): the readings equal the offset. Gauss-Newton steps of
+    minimum norm in joint space (the robot is moved no further than the contact needs); and which solved within the
+    joint limits."""
+    Q = np.array(Q, dtype=float)
+    step = CONTACT_STEP * np.eye(Q.shape[1])
+    for _ in range(iterations):
+        r = read(Q)[1] - offset
+        if np.max(np.abs(r), initial=0.0) < CONTACT_TOLERANCE:
+            break
+        J = np.stack([(read(Q + h)[1] - read(Q - h)[1]) / (2 * CONTACT_STEP) for h in step], axis=2)  # (N, c, n)
+        Q = Q - np.einsum("nij,nj->ni", np.linalg.pinv(J), r)
+    held = np.all(np.abs(read(Q)[1] - offset) < 1e3 * CONTACT_TOLERANCE, axis=1)
+    return Q, held & np.all((Q >= limits[:, 0]) & (Q <= limits[:, 1]), axis=1)

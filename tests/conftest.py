@@ -1,4 +1,9 @@
-"""Shared fixtures: paths of the shipped specs and compiled reference robots."""
+"""Shared fixtures: paths of the shipped specs and compiled reference robots.
+
+The tests mirror armcal's tree (tests/identify/ tests armcal/identify/...); the tests of the whole
+tool (CLI, pipeline, documentation, safety) stay here. A test may take its cases from a test of
+another folder by module name: every folder is on the import path.
+"""
 
 import shutil
 import subprocess
@@ -12,7 +17,9 @@ from armcal.kinematics.compiler import compile_robot
 from armcal.spec import load_spec
 
 ROOT = Path(__file__).resolve().parent.parent
+TESTS = ROOT / "tests"
 SPECS = ROOT / "specs"
+sys.path.extend(str(folder) for folder in sorted(TESTS.iterdir()) if folder.is_dir() and any(folder.glob("test_*.py")))
 SHARED_DATA = ROOT.parent / "shared" / "data"
 
 

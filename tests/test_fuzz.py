@@ -4,7 +4,6 @@ import io
 import time
 
 import numpy as np
-import pytest
 from conftest import ROOT, shipped_specs
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st

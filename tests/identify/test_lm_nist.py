@@ -7,14 +7,14 @@ LRE = -log10(|estimate - certified| / |certified|), about the number of matching
 LRE >= 6 for every parameter and for the residual sum of squares, from both of NIST's start values.
 """
 
-from pathlib import Path
 
 import numpy as np
+from conftest import TESTS
 import pytest
 
 from armcal.identify.lm import solve
 
-DATA = Path(__file__).resolve().parent / "data" / "nist_strd"
+DATA = TESTS / "data" / "nist_strd"
 DIGITS = 6.0  # required LRE
 CERTIFIED_DIGITS = 11.0  # NIST prints 11 significant digits: an LRE above that is not measured
 

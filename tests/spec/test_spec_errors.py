@@ -5,12 +5,12 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, SPECS
+from conftest import ROOT, SPECS, TESTS
 
 from armcal.errors import SpecError
 from armcal.spec import load_spec
 
-DATA = Path(__file__).parent / "data"
+DATA = TESTS / "data"
 
 
 def _problems(path: Path) -> list[tuple[int, int, str, str]]:

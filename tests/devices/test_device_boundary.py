@@ -9,13 +9,13 @@ sources that do each of these, so a pass means the package has none, not that it
 from __future__ import annotations
 
 import ast
-from pathlib import Path
 
 import pytest
+from conftest import ROOT
 
 from armcal.devices.registry import INSTRUMENTS
 
-PACKAGE = Path(__file__).resolve().parents[1] / "armcal"
+PACKAGE = ROOT / "armcal"
 SHARED = {"__init__", "base", "registry"}  # devices/ modules that are no instrument
 
 

@@ -3,17 +3,16 @@
 import json
 import os
 import shutil
-from pathlib import Path
 
 import jinja2
 import pytest
-from conftest import ROOT
+from conftest import ROOT, TESTS
 
 from armcal.errors import UserError
 from armcal.report.context import certificate_context
 from armcal.report.render import PACKAGED, TEMPLATE, TemplateFetcher, certificate_files, render_html, write_files
 
-GOLDEN = Path(__file__).parent / "data" / "golden"
+GOLDEN = TESTS / "data" / "golden"
 
 
 def _results() -> dict:

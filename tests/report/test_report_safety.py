@@ -11,14 +11,14 @@ from pathlib import Path
 
 import matplotlib
 import pytest
-from conftest import ROOT
+from conftest import ROOT, TESTS
 
 from armcal.errors import UserError
 from armcal.report.context import certificate_context
 from armcal.report.plots import draw_plots
 from armcal.report.render import PACKAGED, TEMPLATE, TemplateFetcher, certificate_files, render_html
 
-GOLDEN = Path(__file__).parent / "data" / "golden"
+GOLDEN = TESTS / "data" / "golden"
 OUTSIDE = Path("/etc/hostname")  # any readable file outside the folders
 
 

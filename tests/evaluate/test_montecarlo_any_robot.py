@@ -1,5 +1,5 @@
 """`armcal montecarlo` for any robot and device (issue 17, item 3): the grid stands at Table 7-1 where the design
-model reaches it (the PUMA: Stone's own study, tests/test_montecarlo.py), else where `armcal run` places it.
+model reaches it (the PUMA: Stone's own study, tests/evaluate/test_montecarlo.py), else where `armcal run` places it.
 
 Oracles from outside the study: the design model's forward kinematics at the study's design-control joints give the
 grid's frames (1e-4 mm, the inverse kinematics' tolerance) within the joint limits; Table 7-1's box is centred at

@@ -2,15 +2,15 @@
 
 Oracle of the region's poses: tests/independent_sim.py's numpy forward model (no armcal) puts their measured
 point in the box and, at the task's orientation, turns the target frame as the region says. The study's
-numbers (benchmarks/plan_in_region.py, docs/plan.md) are in tests/test_plan_region_study.py (slow).
+numbers (benchmarks/plan_in_region.py, docs/plan.md) are in tests/procedures/test_plan_region_study.py (slow).
 """
 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
+from conftest import ROOT
 import pytest
 
 import independent_sim as sim
@@ -21,7 +21,6 @@ from armcal.procedures.regions import region_candidates, working_region
 from armcal.spec import load_spec
 from test_plan import _cli, kuka  # noqa: F401 (a fixture)
 
-ROOT = Path(__file__).resolve().parent.parent
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,8 @@
 A device model maps the pose of a measured point in the robot base frame and
 the device parameters to readings: g(T, p_device). Samples are grouped by a
 key (which target, pivot, station...); h(q, p_robot, p_device) = g(fk(q, p_robot), p_device)
-is one CasADi Function per key, evaluated for all samples of the key at once.
+is one CasADi Function per key (composed, with the effects, in effects/model.py only),
+evaluated for all samples of the key at once.
 
 A reading's sigma is the device's noise model (``noise_sigma``) times the factor
 of its noise group where the noise was estimated from the data
@@ -230,26 +231,20 @@ class DeviceModel(ABC):
         """Which true target poses (N, 4, 4) give a valid reading (N,)."""
         return self.measurable(key, self.evaluate(key, poses, pd))
 
-    def measurement_function(self, kinematics: KinematicModel, key: Key) -> ca.Function:
-        """h(q, p, pd) = g(fk_target(q, p), pd) for the samples of one key."""
-        q = ca.SX.sym("q", kinematics.dof)
-        p = ca.SX.sym("p", len(kinematics.parameters))
-        pd = ca.SX.sym("pd", len(self.parameters))
-        name = self.target(key)
-        pose = kinematics.targets[name](q, p) if name is not None else ca.SX.eye(4)
-        return ca.Function("h", [q, p, pd], [self.geometry(key)(pose, pd)], ["q", "p", "pd"], ["y"])
-
     def predict(
         self, kinematics: KinematicModel, key: Key, Q: np.ndarray, p: np.ndarray | None = None, pd: np.ndarray | None = None
     ) -> np.ndarray:
-        """Readings (N, channels) of N samples of one key, one mapped call."""
+        """Readings (N, channels) of N samples of one key, one mapped call of the measurement function h with no
+        effects (built in one place, effects/model.py, which builds on this module)."""
+        from armcal.effects.model import EffectSet, extras_size
+
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         if len(Q) == 0:
             return np.zeros((0, len(self.channels(key))))
         p = kinematics.parameter_vector(p)
         pd = self.parameters.nominal if pd is None else np.asarray(pd, dtype=float)
-        mapped = self.measurement_function(kinematics, key).map(len(Q))
-        return np.array(mapped(Q.T, p, pd)).T
+        mapped = EffectSet().measurement_function(kinematics, self, key).map(len(Q))
+        return np.array(mapped(Q.T, np.zeros((extras_size(kinematics.dof), len(Q))), p, pd, np.zeros(0))).T
 
     def evaluate(self, key: Key, poses: np.ndarray, pd: np.ndarray | None = None) -> np.ndarray:
         """Readings (N, channels) for given target poses (N, 4, 4), e.g. of a simulated true robot."""

@@ -90,7 +90,7 @@ def validate(
     """Check specs; list every problem with file, line, column and field (exit 1 if any spec has one)."""
     from armcal.spec import load_spec
     from armcal.spec.loader import missing_data_files
-    from armcal.summary import spec_summary
+    from armcal.terminal import spec_summary
 
     failed = False
     for spec in specs:
@@ -130,7 +130,7 @@ def fk(
     target: Annotated[str | None, typer.Option(help="A robot target instead of the tool.", metavar="NAME")] = None,
 ) -> None:
     """Forward kinematics of the spec's nominal robot at one configuration."""
-    from armcal.summary import forward_kinematics_report
+    from armcal.terminal import forward_kinematics_report
     from armcal.spec import load_spec
 
     typer.echo(forward_kinematics_report(load_spec(spec), q, target))
@@ -146,7 +146,7 @@ def simulate(
     """Write the spec's calibration and validation data, measured on a simulated true robot."""
     from armcal.simulate import data_folder, write_simulation
     from armcal.spec import load_spec
-    from armcal.summary import simulation_summary, where_run_reads
+    from armcal.terminal import simulation_summary, where_run_reads
 
     loaded = load_spec(spec)
     campaign, written = write_simulation(loaded, out if out is not None else data_folder(loaded), force)
@@ -173,7 +173,7 @@ def run(
 ) -> None:
     """Identify the robot from the spec's data and write results.json and calibrated.yaml."""
     from armcal.pipeline import run as run_pipeline
-    from armcal.summary import run_summary
+    from armcal.terminal import run_summary
 
     outcome = run_pipeline(spec, out, force, pdf=not no_pdf, history=history or [])
     typer.echo(run_summary(outcome))
@@ -220,8 +220,8 @@ def montecarlo(
     ] = None,
 ) -> None:
     """Stone's Monte-Carlo study: N simulated robots identified, then design-model vs calibrated control on the grid task."""
-    from armcal.montecarlo import montecarlo as run_study, pose_counts
-    from armcal.summary import study_summary
+    from armcal.montecarlo_command import montecarlo as run_study, pose_counts
+    from armcal.terminal import study_summary
 
     with _progress_bar("robots, then designs") as show:
         study = run_study(spec, runs, sweep or [], seed, out, workers, scheduler, show, pose_counts(poses))
@@ -253,7 +253,7 @@ def batch(
     """Calibrate a fleet: run every spec (one certificate each) in parallel; exit 1 if any spec failed, 4 on an internal error."""
     from armcal.batch import batch as run_batch, exit_code, summary_files, write_summary
     from armcal.fileio import refuse_replacing
-    from armcal.summary import batch_summary
+    from armcal.terminal import batch_summary
 
     summary = summary_files(out)
     refuse_replacing(summary, specs, force)  # before the fleet's work, not after it

@@ -9,7 +9,7 @@ from pathlib import Path
 from armcal.dataio.reader import data_text, read_measurements
 from armcal.devices import device_model, readings_mode
 from armcal.errors import Issue, SpecError, UserError
-from armcal.diagnose.stage import identify_and_diagnose
+from armcal.diagnose.calibration import identify_and_diagnose
 from armcal.evaluate.evidence import evidence
 from armcal.evaluate.grid import evaluation_tasks
 from armcal.evaluate.residuals import residuals_csv
@@ -18,9 +18,9 @@ from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import draw_plots
 from armcal.output_set import output_set, run_id, stamp_svg
 from armcal.report.render import certificate_files, check_templates, read_earlier, template_folders
-from armcal.results.model import Results
+from armcal.results.schema import Results
 from armcal.results.calibrated import calibrated_text
-from armcal.results.campaign import campaign
+from armcal.results.campaign_block import campaign
 from armcal.results.history import history_entries
 from armcal.simulate import find_truth, simulated_times
 from armcal.spec.sections import Simulate

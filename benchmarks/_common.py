@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 from scipy.optimize import least_squares  # noqa: E402
 
 from armcal.devices.sonic import ROD_NEAR  # noqa: E402
-from armcal.effects.model import DEFAULT_LINK_MASS, GRAVITY  # noqa: E402
+from armcal.effects.measurement import DEFAULT_LINK_MASS, GRAVITY  # noqa: E402
 
 REPEATS = 15
 HEADER = f"{'case':44s} {'armcal ms':>9s} {'baseline ms':>10s} {'ratio':>7s} {'cost A':>11s} {'cost B':>11s} {'val A':>8s} {'val B':>8s}"

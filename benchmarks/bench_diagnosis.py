@@ -22,11 +22,11 @@ import numpy as np
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
 from armcal.diagnose.candidates import candidates
-from armcal.diagnose.stage import identify_and_diagnose
-from armcal.effects.model import EffectSet
+from armcal.diagnose.calibration import identify_and_diagnose
+from armcal.effects.measurement import EffectSet
 from armcal.identify.identifiability import analyse
 from armcal.identify.problem import build_problem
-from armcal.identify.start import starting_values
+from armcal.identify.starting_values import starting_values
 from armcal.kinematics.compiler import compile_robot
 from armcal.spec import load_spec
 

@@ -29,7 +29,7 @@ from armcal.dataio.writer import write_measurements
 from armcal.devices import device_model
 from armcal.identify.fit import fit
 from armcal.identify.problem import build_problem
-from armcal.identify.start import starting_values
+from armcal.identify.starting_values import starting_values
 from armcal.kinematics.compiler import compile_robot
 from armcal.simulate import simulate_campaign
 from armcal.spec import load_spec

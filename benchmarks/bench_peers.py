@@ -63,7 +63,7 @@ from armcal.devices import device_model
 from armcal.export.urdf import urdf
 from armcal.identify.fit import fit
 from armcal.identify.problem import build_problem
-from armcal.identify.start import starting_values
+from armcal.identify.starting_values import starting_values
 from armcal.kinematics.compiler import compile_robot
 from armcal.pipeline import run
 from armcal.spec import load_spec

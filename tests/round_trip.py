@@ -5,7 +5,7 @@ import pytest
 from ruamel.yaml import YAML
 
 from armcal.dataio.reader import read_measurements
-from armcal.diagnose.stage import calibration_problem, identify_and_diagnose
+from armcal.diagnose.calibration import calibration_problem, identify_and_diagnose
 from armcal.kinematics.compiler import compile_robot
 from armcal.pipeline import fitted_device, run
 from armcal.spec import load_spec

@@ -9,8 +9,8 @@ import pytest
 from conftest import ROOT, SPECS
 
 from armcal.batch import batch, exit_code, jobs
-from armcal.summary import batch_summary
-from armcal.montecarlo import montecarlo
+from armcal.terminal import batch_summary
+from armcal.montecarlo_command import montecarlo
 
 FLEET = [ROOT / "examples" / "goswami_ballbar" / "spec.yaml", ROOT / "examples" / "theodolite" / "spec.yaml"]
 

@@ -8,7 +8,7 @@ import pytest
 from conftest import ROOT
 
 from armcal.pipeline import run
-from armcal.results.model import Results
+from armcal.results.schema import Results
 from armcal.spec import load_spec
 
 EXAMPLES = sorted(p.parent.name for p in (ROOT / "examples").glob("*/spec.yaml"))

@@ -5,7 +5,7 @@ The script runs once (about a minute on two cores) and writes its numbers with -
 Oracles and tolerances:
 
 * (6.11)-(6.13) typed in again here from the dissertation, to check armcal's formulas
-  (features.feature_accuracy) on the script's own inputs: equal to rounding.
+  (stone_features.feature_accuracy) on the script's own inputs: equal to rounding.
 * The first-order covariance of the fitted plane and circle for independent errors of equal
   sigma (Stone's (6.9)-(6.10) for the plane, the Gauss-Newton covariance of centre and radius
   for the circle): exact to first order, so the spread of armcal's fits over M simulated
@@ -55,7 +55,7 @@ import numpy as np
 import pytest
 from conftest import ROOT
 
-from armcal.identify import features
+from armcal.identify import stone_features
 
 SCRIPT = ROOT / "docs" / "tutorials" / "stone.py"
 
@@ -139,7 +139,7 @@ def test_stone_formulas_are_conservative_first_order_approximations(tutorial):
 
 def test_armcal_feature_fits_scatter_as_the_first_order_covariance_says():
     """Circles of the example's radii, ranges and N_i = 20 with isotropic noise, fitted by
-    armcal.identify.features 2000 times each: the spread along the oracle's worst direction."""
+    armcal.identify.stone_features 2000 times each: the spread along the oracle's worst direction."""
     rng = np.random.default_rng(6_11)
     sigma, repeats = 0.1, 2000  # mm: the example's residual std (Table 6-4 is 0.1 - 0.4 mm)
     centre_true = np.array([120.0, -40.0, 35.0])
@@ -148,7 +148,7 @@ def test_armcal_feature_fits_scatter_as_the_first_order_covariance_says():
         arc = centre_true + np.c_[radius * np.cos(phi), radius * np.sin(phi), np.zeros(len(phi))]
         tilts, centres = [], []
         for _ in range(repeats):
-            found = features.joint_features(1, True, arc + rng.normal(scale=sigma, size=arc.shape), phi)
+            found = stone_features.joint_features(1, True, arc + rng.normal(scale=sigma, size=arc.shape), phi)
             tilts.append(found.axis[:2])  # axis is +z for a counter-clockwise sweep
             centres.append(found.centre[:2] - centre_true[:2])
         for samples, covariance in ((np.array(tilts), tilt_cov), (np.array(centres), centre_cov)):

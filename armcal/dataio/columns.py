@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from armcal.devices import device_model
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 from armcal.spec.robot import joint_kind
 
 

@@ -16,7 +16,7 @@ from armcal.dataio.measurements import Measurements
 from armcal.devices import device_model
 from armcal.errors import Issue, SpecError
 from armcal.fileio import read_input
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 from armcal.units import factor
 
 MAX_ISSUES = 20

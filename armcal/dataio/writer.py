@@ -10,7 +10,7 @@ import numpy as np
 from armcal.dataio.columns import layout
 from armcal.dataio.measurements import Measurements
 from armcal.fileio import write_text_atomic
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 from armcal.units import factor
 
 

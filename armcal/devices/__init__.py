@@ -8,7 +8,7 @@ from armcal.devices.base import Channel, DeviceModel, Key
 from armcal.devices.registry import INSTRUMENTS
 
 if TYPE_CHECKING:
-    from armcal.spec.model import Spec
+    from armcal.spec.document import Spec
 
 
 def device_model(spec: Spec, mode: str = "ranges") -> DeviceModel:

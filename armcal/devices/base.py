@@ -3,7 +3,7 @@
 A device model maps the pose of a measured point in the robot base frame and
 the device parameters to readings: g(T, p_device). Samples are grouped by a
 key (which target, pivot, station...); h(q, p_robot, p_device) = g(fk(q, p_robot), p_device)
-is one CasADi Function per key (composed, with the effects, in effects/model.py only),
+is one CasADi Function per key (composed, with the effects, in effects/measurement.py only),
 evaluated for all samples of the key at once.
 
 A reading's sigma is the device's noise model (``noise_sigma``) times the factor
@@ -235,8 +235,8 @@ class DeviceModel(ABC):
         self, kinematics: KinematicModel, key: Key, Q: np.ndarray, p: np.ndarray | None = None, pd: np.ndarray | None = None
     ) -> np.ndarray:
         """Readings (N, channels) of N samples of one key, one mapped call of the measurement function h with no
-        effects (built in one place, effects/model.py, which builds on this module)."""
-        from armcal.effects.model import EffectSet, extras_size
+        effects (built in one place, effects/measurement.py, which builds on this module)."""
+        from armcal.effects.measurement import EffectSet, extras_size
 
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         if len(Q) == 0:

@@ -33,7 +33,7 @@ import numpy as np
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel
 from armcal.effects.library import EffectSpec, coupling, moment_terms, with_products
-from armcal.effects.model import bending_regressors, gravity_torque_function, moment_regressors
+from armcal.effects.measurement import bending_regressors, gravity_torque_function, moment_regressors
 from armcal.kinematics.compiler import KinematicModel
 from armcal.spec.sections import Diagnose
 

@@ -34,7 +34,7 @@ from armcal.devices.base import DeviceModel
 from armcal.diagnose.candidates import candidates
 from armcal.diagnose.score import Test, holm, score_tests
 from armcal.effects.library import EffectSpec
-from armcal.effects.model import EffectSet
+from armcal.effects.measurement import EffectSet
 from armcal.identify.fit import FitResult, fit
 from armcal.identify.heldout import held_out
 from armcal.identify.identifiability import Identifiability, analyse, extend

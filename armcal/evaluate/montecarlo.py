@@ -25,15 +25,15 @@ from pathlib import Path
 import numpy as np
 
 from armcal.devices import device_model
-from armcal.diagnose.stage import calibration_problem
+from armcal.diagnose.calibration import calibration_problem
 from armcal.errors import UserError
 from armcal.evaluate.grid import GRID_UNREACHABLE, grid_control, grid_indices, measured_point
-from armcal.identify.feature_fit import feature_parameters
+from armcal.identify.feature_method import feature_parameters
 from armcal.identify.fit import FitResult, fit
 from armcal.identify.problem import combined_parameters
 from armcal.simulate.campaign import CampaignSimulator
 from armcal.simulate.truth import TrueRobot
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 
 
 @dataclass(frozen=True)

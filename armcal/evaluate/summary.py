@@ -7,7 +7,7 @@ import numpy as np
 from armcal.diagnose.causes import likely_causes
 from armcal.evaluate.held_out_check import held_out_check
 from armcal.diagnose.loop import Diagnosis
-from armcal.diagnose.stage import Calibration
+from armcal.diagnose.calibration import Calibration
 from armcal.evaluate.acceptance import acceptance_block
 from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
@@ -16,7 +16,7 @@ from armcal.identify.uncertainty import residual_stats
 from armcal.kinematics.parallel import parallel_axes
 from armcal.results.breakdown import after_fit
 from armcal.results.build import build_results, parameter_rows
-from armcal.results.model import Results
+from armcal.results.schema import Results
 from armcal.spec import LoadedSpec
 from armcal.spec.sections import EFFECT_TYPES
 from armcal.units import from_internal

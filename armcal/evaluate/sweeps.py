@@ -17,7 +17,7 @@ from armcal import units
 from armcal.errors import UserError
 from armcal.kinematics.compiler import compile_robot
 from armcal.spec.base import Parameter
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
 from armcal.spec.sections import Simulate
 

@@ -4,7 +4,7 @@ robot, its joint-side effects included, reaches each target.
 For a target frame T* (position and orientation, in the chain's world frame) the joints that put the calibrated
 chain there, q*, come from Newton-Raphson inverse kinematics (Stone 5.4, kinematics/ik.py), from the row's seed or,
 without one, the branch nearest the middle of the joint limits. The robot's joints then sit at
-q + Delta(q) when commanded q (encoder scale, gear harmonics, compliance, coupling: effects/model.py), so the
+q + Delta(q) when commanded q (encoder scale, gear harmonics, compliance, coupling: effects/measurement.py), so the
 command solves q + Delta(q) = q*, by the fixed point q <- q* - Delta(q) (Delta is small and slowly varying:
 each step shrinks the error by about |dDelta/dq|). The corrected Cartesian target is the pose the nominal model
 reaches at that command: a controller that keeps its nominal model, given it, commands the same joints.
@@ -19,7 +19,7 @@ import casadi as ca
 import numpy as np
 
 from armcal.effects.library import from_spec
-from armcal.effects.model import EffectSet, extras_size
+from armcal.effects.measurement import EffectSet, extras_size
 from armcal.errors import UserError
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel, compile_robot

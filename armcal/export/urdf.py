@@ -18,7 +18,7 @@ import numpy as np
 
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import pose_from_matrix
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 
 CHECKS = 20  # random configurations at which the URDF's motion is compared with the chain's
 TOLERANCE = 1e-9  # mm (and unit rotation entries): a joint moving otherwise is not Rot(z, q) about F_(i-1)

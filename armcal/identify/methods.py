@@ -8,11 +8,11 @@ import numpy as np
 
 from armcal.dataio.measurements import Measurements
 from armcal.devices import device_model
-from armcal.identify.feature_fit import feature_parameters
-from armcal.identify.features import FeatureIdentification
+from armcal.identify.feature_method import feature_parameters
+from armcal.identify.stone_features import FeatureIdentification
 from armcal.identify.fit import FitResult, fit
 from armcal.identify.problem import Problem
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ import numpy as np
 
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key
-from armcal.effects.model import EffectSet, extras_matrix
+from armcal.effects.measurement import EffectSet, extras_matrix
 from armcal.identify.compiled import compiled
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet

@@ -1,5 +1,5 @@
 """Lumped masses on links: the gravity torques of compliance (Stone's model leaves
-gravity out; the elastostatic form is in effects/model.py)."""
+gravity out; the elastostatic form is in effects/measurement.py)."""
 
 from __future__ import annotations
 

@@ -8,7 +8,7 @@ from armcal.procedures.circle_point import plan_circle_point
 from armcal.procedures.plan import Plan
 from armcal.procedures.poses import plan_poses
 from armcal.procedures.shells import plan_shells
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint, Shells
 
 

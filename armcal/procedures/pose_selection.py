@@ -35,13 +35,13 @@ import numpy as np
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key
 from armcal.effects.library import from_spec
-from armcal.effects.model import EffectSet
+from armcal.effects.measurement import EffectSet
 from armcal.identify.identifiability import Identifiability, analyse
 from armcal.identify.problem import build_problem
 from armcal.kinematics.compiler import KinematicModel
 from armcal.procedures.plan import Plan
 from armcal.procedures.poses import fixed_samples, random_keyed_plan
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 
 RIDGE = 1e-6  # of the average information per candidate (column-scaled), added while M is singular
 EXCHANGE_PASSES = 20  # at most; a pass that swaps nothing ends the exchange

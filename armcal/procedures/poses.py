@@ -19,7 +19,7 @@ from armcal.dataio.reader import read_pose_file
 from armcal.devices.base import DeviceModel, Key
 from armcal.kinematics.compiler import KinematicModel
 from armcal.procedures.plan import Plan
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 from armcal.spec.procedure import Poses
 
 def plan_poses(procedure: Poses, kinematics: KinematicModel, device: DeviceModel, spec: Spec, spec_dir: Path) -> Plan:

@@ -29,7 +29,7 @@ from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, rot_y, rot_z
 from armcal.procedures import pose_selection as ps
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 
 REGIONS = ("iso_cube", "grid")
 BATCH = 50_000  # joint-space samples drawn at a time

@@ -7,7 +7,7 @@ import math
 
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.results.changes import ALPHA
-from armcal.results.model import TASK_TITLES
+from armcal.results.schema import TASK_TITLES
 from armcal.units import ANGLE_UNITS, factor
 
 PLOT_TITLES = {

@@ -33,7 +33,7 @@ from armcal.output_set import check_set, replace_in_set
 from armcal.report.context import certificate_context
 from armcal.results.changes import check_same_robot
 from armcal.results.history import history_entries
-from armcal.results.model import Results
+from armcal.results.schema import Results
 
 PACKAGED = Path(__file__).resolve().parent.parent / "templates"
 TEMPLATE = "certificate.html.j2"

@@ -7,8 +7,8 @@ import math
 import numpy as np
 
 from armcal import __version__
-from armcal.results.campaign import report_fields
-from armcal.results.model import Results
+from armcal.results.campaign_block import report_fields
+from armcal.results.schema import Results
 from armcal.results.provenance import git_info, utc_now
 from armcal.spec import LoadedSpec
 from armcal.units import from_internal

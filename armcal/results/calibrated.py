@@ -23,7 +23,7 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from armcal import __version__
 from armcal.effects.library import from_spec, to_spec_dict
 from armcal.kinematics.params import parameter_set
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 from armcal.units import from_internal
 
 SIGNIFICANT = 15  # a 2 m transform to 2e-12 mm: the readings reproduced far below any noise

@@ -23,10 +23,10 @@ from armcal.devices.base import DeviceModel
 from armcal.kinematics.compiler import compile_robot
 from armcal.procedures import Plan, plan
 from armcal.effects.library import from_spec, needs
-from armcal.effects.model import EffectSet
+from armcal.effects.measurement import EffectSet
 from armcal.simulate.truth import TrueRobot
 from armcal.spec import sections as fx
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 
 @dataclass(frozen=True)
 class Campaign:

@@ -18,7 +18,7 @@ import numpy as np
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, rot_x, rot_y, rot_z, trans
 from armcal.effects.library import EffectSpec, LumpedMass, from_spec
-from armcal.effects.model import EffectSet, extras_matrix
+from armcal.effects.measurement import EffectSet, extras_matrix
 from armcal.spec.sections import Simulate
 
 

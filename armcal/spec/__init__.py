@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import importlib
 
-_EXPORTS = {"LoadedSpec": "armcal.spec.loader", "load_spec": "armcal.spec.loader", "Spec": "armcal.spec.model"}
+_EXPORTS = {"LoadedSpec": "armcal.spec.loader", "load_spec": "armcal.spec.loader", "Spec": "armcal.spec.document"}
 __all__ = list(_EXPORTS)
 
 

@@ -10,7 +10,7 @@ from collections.abc import Iterator
 
 from armcal.devices.registry import INSTRUMENTS, accepting
 from armcal.errors import either, with_article
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
 from armcal.spec.robot import SixParameterRobot
 from armcal.spec.sections import JointBending, JointCompliance, JointCoupling

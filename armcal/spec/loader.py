@@ -22,7 +22,7 @@ from armcal import units
 from armcal.errors import Issue, SpecError
 from armcal.fileio import read_input
 from armcal.spec.checks import check_spec
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 from armcal.spec.robot import joint_kind
 from armcal.spec.schema import allowed_keys
 

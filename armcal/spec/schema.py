@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 
 SCHEMA_ID = "urn:armcal:spec:1"  # names the spec format (armcal: 1); a URN, as the project publishes no URL
 

@@ -7,7 +7,7 @@
 2. The grid-touching task (S 7.2.1, Table 7-1) on the shipped example's true robot under
    design-model and under signature-model (calibrated) control, run by armcal's pipeline
    (`armcal run`): the 34 indices and their improvement factors, next to Tables 6-10, 6-11.
-3. The Monte-Carlo study of chapter 7 (armcal.montecarlo): the slope of log(std) of the
+3. The Monte-Carlo study of chapter 7 (armcal.montecarlo_command): the slope of log(std) of the
    34 indices against log(swept value) for the noise factor k (7.4.3), the points per
    circle N_i (7.4.4), the target radius R (7.4.5) and the encoder error sigma_e (7.4.1).
 
@@ -29,9 +29,9 @@ import numpy as np
 
 from armcal.devices import device_model
 from armcal.evaluate.grid import TaskControl, grid_indices
-from armcal.identify import features
+from armcal.identify import stone_features
 from armcal.kinematics.compiler import compile_robot
-from armcal.montecarlo import montecarlo
+from armcal.montecarlo_command import montecarlo
 from armcal.pipeline import run
 from armcal.procedures.tasks import grid_task
 from armcal.simulate.campaign import CampaignSimulator
@@ -130,14 +130,14 @@ def feature_study(repeats: int = REPEATS, seed: int = 65) -> list[dict]:
     clean = CampaignSimulator(spec.model_copy(update={"simulate": one_robot.model_copy(update={"noise": False})}), folder, validation=False)
     points_device = device_model(spec, "points")
     clean_sweeps = _sweeps(points_device, spec, clean.run(0).calibration)
-    reference = [features.joint_features(j, True, p, q) for j, (p, q) in enumerate(clean_sweeps, start=1)]
+    reference = [stone_features.joint_features(j, True, p, q) for j, (p, q) in enumerate(clean_sweeps, start=1)]
     bases = [_plane_basis(f.axis) for f in reference]
     count = len(reference)
     tilt, centre = np.zeros((repeats, count, 2)), np.zeros((repeats, count, 2))
     sigma_n, sigma_r = np.zeros((repeats, count)), np.zeros((repeats, count))
     for k, sequence in enumerate(np.random.SeedSequence(seed).spawn(repeats)):
         for j, (points, q) in enumerate(_sweeps(points_device, spec, noisy.run(sequence).calibration)):
-            found = features.joint_features(j + 1, True, points, q)
+            found = stone_features.joint_features(j + 1, True, points, q)
             tilt[k, j] = bases[j] @ found.axis  # small-angle tilt of the normal, rad
             centre[k, j] = bases[j] @ (found.centre - reference[j].centre)  # in-plane centre error, mm
             sigma_n[k, j] = np.std(found.normal_residuals, ddof=3)
@@ -146,7 +146,7 @@ def feature_study(repeats: int = REPEATS, seed: int = 65) -> list[dict]:
     for j, ref in enumerate(reference):
         points = clean_sweeps[j][0]
         s_n, s_r = float(np.sqrt(np.mean(sigma_n[:, j] ** 2))), float(np.sqrt(np.mean(sigma_r[:, j] ** 2)))
-        stone_plane, stone_centre = features.feature_accuracy(s_n, s_r, ref.radius, len(points), ref.range_deg)
+        stone_plane, stone_centre = stone_features.feature_accuracy(s_n, s_r, ref.radius, len(points), ref.range_deg)
         linear_plane, linear_centre = linearised_accuracy(points, ref.axis, ref.centre, s_n, s_r)
         worst = lambda errors: float(np.sqrt(np.linalg.eigvalsh(np.cov(errors.T))[-1]))  # noqa: E731 - Stone's "maximum variance"
         rows.append({
@@ -199,7 +199,7 @@ def grid_summary(indices: list[dict]) -> list[dict]:
 
 
 def monte_carlo(runs: int = RUNS, sweeps: list[str] = SWEEPS) -> dict:
-    """armcal.montecarlo at every sweep; the summaries (montecarlo.json) by variable."""
+    """armcal.montecarlo_command at every sweep; the summaries (montecarlo.json) by variable."""
     out = {}
     with tempfile.TemporaryDirectory() as folder:
         for sweep in sweeps:

@@ -8,7 +8,7 @@ from armcal.devices import device_model
 from armcal.diagnose.loop import run_diagnosis
 from armcal.diagnose.score import score_tests
 from armcal.effects.library import EffectSpec
-from armcal.effects.model import EffectSet
+from armcal.effects.measurement import EffectSet
 from armcal.identify.fit import fit
 from armcal.identify.problem import build_problem
 from armcal.kinematics.compiler import compile_robot

@@ -18,9 +18,9 @@ from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
 from armcal.diagnose.candidates import compliance_candidates
 from armcal.diagnose.loop import run_diagnosis
-from armcal.diagnose.stage import calibration_problem
+from armcal.diagnose.calibration import calibration_problem
 from armcal.effects.library import EffectSpec, LumpedMass, from_spec, moment_terms, with_products
-from armcal.effects.model import EffectSet, extras_size, moment_regressors
+from armcal.effects.measurement import EffectSet, extras_size, moment_regressors
 from armcal.errors import SpecError
 from armcal.identify.fit import design_identifiability
 from armcal.kinematics.compiler import compile_robot

@@ -12,7 +12,7 @@ from test_diagnosis import TRACKER, _data, _spec
 
 from armcal.diagnose.loop import _Context, contiguous_folds, folds_along, holds_out, run_diagnosis
 from armcal.effects.library import EffectSpec, coupling
-from armcal.effects.model import EffectSet
+from armcal.effects.measurement import EffectSet
 from armcal.pipeline import run
 from armcal.spec.sections import Diagnose, Fit
 

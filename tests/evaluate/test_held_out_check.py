@@ -13,7 +13,7 @@ import pytest
 from conftest import armcal_cli, copy_example
 
 from armcal.pipeline import run
-from armcal.summary import held_out_lines
+from armcal.terminal import held_out_lines
 
 NOISE_MM = 0.025  # examples/hidden_harmonic: device.noise 0.0025 cm
 

@@ -16,7 +16,7 @@ from test_task_placement import SCARA
 from armcal.errors import UserError
 from armcal.evaluate.grid import ORIENTATION, RADIAL, unobserved_orientation
 from armcal.evaluate.montecarlo import RobotStudy
-from armcal.montecarlo import montecarlo
+from armcal.montecarlo_command import montecarlo
 from armcal.spec import load_spec
 
 HIDDEN_HARMONIC = ROOT / "examples" / "hidden_harmonic" / "spec.yaml"
@@ -115,7 +115,7 @@ def test_the_study_predicts_held_out_accuracy_against_the_number_of_poses(tmp_pa
 
 
 def test_a_poses_list_that_is_not_numbers_is_a_user_error():
-    from armcal.montecarlo import pose_counts
+    from armcal.montecarlo_command import pose_counts
 
     assert pose_counts("30,15,30") == [15, 30]
     for bad in ("15;30", "0,15", "a"):

@@ -23,11 +23,11 @@ from round_trip import starting_residuals
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
-from armcal.diagnose.stage import identify_and_diagnose
+from armcal.diagnose.calibration import identify_and_diagnose
 from armcal.evaluate.summary import summarize
 from armcal.kinematics.compiler import compile_robot
 from armcal.results.calibrated import calibrated_text
-from armcal.results.campaign import campaign
+from armcal.results.campaign_block import campaign
 from armcal.spec import load_spec
 
 PER_PAIR = 25  # campaigns per robot and device in the full study

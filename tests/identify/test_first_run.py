@@ -19,10 +19,10 @@ from conftest import ROOT, copy_example
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
-from armcal.diagnose.stage import calibration_problem
+from armcal.diagnose.calibration import calibration_problem
 from armcal.identify import compiled as cache
 from armcal.identify.problem import _value_and_jacobian
-from armcal.effects.model import EffectSet
+from armcal.effects.measurement import EffectSet
 from armcal.kinematics.compiler import compile_robot
 from armcal.pipeline import fitted_device
 from armcal.spec import load_spec

@@ -154,7 +154,7 @@ def test_the_tracker_start_keeps_the_base_components_a_spec_holds(tmp_path):
     from armcal.dataio.reader import read_measurements
     from armcal.devices import device_model
     from armcal.identify.problem import build_problem
-    from armcal.identify.start import starting_values
+    from armcal.identify.starting_values import starting_values
     from armcal.kinematics.compiler import compile_robot
 
     folder = ROOT / "examples" / "hidden_harmonic"

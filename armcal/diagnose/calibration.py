@@ -24,16 +24,16 @@ from armcal.devices.base import DeviceModel
 from armcal.diagnose.loop import Diagnosis, run_diagnosis
 from armcal.effects.library import from_spec
 from armcal.errors import UserError
-from armcal.effects.model import EffectSet
+from armcal.effects.measurement import EffectSet
 from armcal.identify.fit import design_identifiability, fit
 from armcal.identify.methods import Identified, identify_parameters
 from armcal.identify.problem import Problem, build_problem
 from armcal.identify.heldout import held_out
-from armcal.identify.start import starting_values
+from armcal.identify.starting_values import starting_values
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.identify.variance import NoiseEstimates, estimate_noise, provisional_scale, readings_groups, rescaled, unit_scale, wants_estimation
 from armcal.kinematics.compiler import KinematicModel
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.parallel import parallel_axes
 from armcal.kinematics.transforms import pose_from_matrix
 from armcal.results.breakdown import before_data, table_lines
-from armcal.results.model import TASK_TITLES
+from armcal.results.schema import TASK_TITLES
 from armcal.spec import LoadedSpec
 from armcal.spec.robot import joint_kind
 from armcal.units import from_internal, to_internal
@@ -55,7 +55,7 @@ def spec_parameters(spec):
     """Every parameter a run of the spec starts with: the robot's, the instrument's, the declared effects'."""
     from armcal.devices import device_model
     from armcal.effects.library import from_spec
-    from armcal.effects.model import EffectSet
+    from armcal.effects.measurement import EffectSet
     from armcal.identify.problem import combined_parameters
 
     return combined_parameters(compile_robot(spec.robot), device_model(spec, spec.fit.sonic_readings), EffectSet(tuple(from_spec(e) for e in spec.effects)))

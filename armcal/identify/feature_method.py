@@ -12,12 +12,12 @@ import numpy as np
 
 from armcal.dataio.measurements import Measurements
 from armcal.errors import UserError
-from armcal.identify.features import FeatureIdentification, identify
+from armcal.identify.stone_features import FeatureIdentification, identify
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.params import ParameterSet
 from armcal.kinematics.smodel import DHRow
 from armcal.kinematics.transforms import inverse, pose_from_matrix, xyz_zyx
-from armcal.spec.model import Spec
+from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
 from armcal.spec.robot import DHRobot
 

@@ -13,11 +13,12 @@ from armcal.diagnose.calibration import identify_and_diagnose
 from armcal.evaluate.evidence import evidence
 from armcal.evaluate.grid import evaluation_tasks
 from armcal.evaluate.residuals import residuals_csv
-from armcal.evaluate.summary import summarize
+from armcal.evaluate.run_figures import run_figures
 from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import draw_plots
 from armcal.output_set import output_set, run_id, stamp_svg
 from armcal.report.render import certificate_files, check_templates, read_earlier, template_folders
+from armcal.results.build import build_results
 from armcal.results.schema import Results
 from armcal.results.calibrated import calibrated_text
 from armcal.results.campaign_block import campaign
@@ -85,14 +86,10 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
         simulated_times(validation_path, validation.extras.get("t"), step, None if not simulated[1] else {}) if validation is not None else None,
     ) if w]
     measured = campaign(loaded, calibration, validation, simulated)
-    results = summarize(loaded, calibrated, calibration.rows, tasks, found, list(plots), measured)
-    results = Results.model_validate({
-        **results.model_dump(mode="json"),
-        "run_id": identifier,
-        "simulated": {"calibration": simulated[0], "validation": simulated[1] if validation_path else None},
-        "history": history_entries(results.model_dump(mode="json"), earlier),
-        "warnings": warnings,
-    })
+    figures = run_figures(loaded, calibrated, calibration.rows, tasks, found, list(plots), measured)
+    results = build_results(loaded, figures, run_id=identifier, warnings=warnings,
+                            simulated={"calibration": simulated[0], "validation": simulated[1] if validation_path else None})
+    results = Results.model_validate({**results.model_dump(mode="json"), "history": history_entries(results.model_dump(mode="json"), earlier)})
     files = {
         "results.json": json.dumps(results.model_dump(mode="json"), indent=2) + "\n",
         "calibrated.yaml": calibrated_text(loaded, results, calibrated, out_dir),

@@ -30,7 +30,7 @@ from scipy.special import chdtrc
 from armcal.diagnose.score import ABSORBED
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.kinematics.parallel import PARALLEL_DEG
-from armcal.results.calibrated import yaml_path
+from armcal.spec.locations import yaml_path
 
 SHOWN = 4  # held groups named at most
 

@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from armcal import __version__
+from armcal.results.breakdown import after_fit
 from armcal.results.campaign_block import report_fields
 from armcal.results.schema import Results
 from armcal.results.provenance import git_info, utc_now
@@ -32,12 +33,17 @@ def parameter_rows(loaded: LoadedSpec, entries, values: np.ndarray, std: np.ndar
     return rows
 
 
-def build_results(loaded: LoadedSpec, **stages) -> Results:
-    """Results from: status, unit, identifiability, parameters, residuals, improvement_factor,
-    diagnosis, evaluation, solver, noise_check, correlations, campaign. The spec's path is stored resolved and
-    absolute: the same file gives the same results however its path was typed."""
+def build_results(loaded: LoadedSpec, figures: dict, **run) -> Results:
+    """Results from a run's figures (evaluate/run_figures.py: status, unit, identifiability, parameters, residuals,
+    improvement_factor, diagnosis, evaluation, solver, noise_check, correlations, campaign...) and what the run adds
+    (``run``: run_id, simulated, warnings): the parameters in the spec's units, the parameter counts' breakdown. The
+    spec's path is stored resolved and absolute: the same file gives the same results however its path was typed."""
     spec = loaded.spec
     created = utc_now()
+    stages = dict(figures)
+    fitted = stages.pop("parameters")
+    stages["parameters"] = parameter_rows(loaded, fitted["entries"], fitted["values"], fitted["std"], fitted["identified"])
+    stages["identifiability"] = {**stages["identifiability"], "breakdown": after_fit(fitted["entries"], fitted["base"], fitted["fixed"])}
     return Results.model_validate(
         {
             "armcal_version": __version__,
@@ -47,5 +53,6 @@ def build_results(loaded: LoadedSpec, **stages) -> Results:
             "robot": {"name": spec.robot.name, "serial": spec.robot.serial, "convention": spec.robot.convention, "dof": spec.robot.dof},
             "device": {"type": spec.device.type, "unit": stages.pop("unit")},
             **stages,
+            **run,
         }
     )

@@ -21,30 +21,13 @@ from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
 from armcal import __version__
-from armcal.effects.library import from_spec, to_spec_dict
+from armcal.effects.library import to_spec_dict
 from armcal.kinematics.params import parameter_set
 from armcal.spec.document import Spec
+from armcal.spec.locations import yaml_path
 from armcal.units import from_internal
 
 SIGNIFICANT = 15  # a 2 m transform to 2e-12 mm: the readings reproduced far below any noise
-
-
-def yaml_path(name: str, spec: Spec) -> list:
-    """Where a parameter lives in the spec's YAML."""
-    head, _, field = name.rpartition(".")
-    declared = [from_spec(e).id for e in spec.effects]
-    if head in declared:
-        return ["effects", declared.index(head), field]
-    robot = spec.robot
-    if head in ("base", "tool"):
-        return ["robot", head, field]
-    if head in robot.joint_names():
-        return ["robot", "joints", robot.joint_names().index(head), field]
-    if head.startswith("L") and head[1:].isdigit():
-        return ["robot", "links", int(head[1:]) - 1, field]
-    if head in robot.targets:
-        return ["robot", "targets", head, field]
-    return spec.device.parameter_location(name)
 
 
 def _set(root: CommentedMap, path: list, value: float, held: bool = False, std: float | None = None) -> None:

@@ -18,7 +18,7 @@ from armcal.gitrepo import file_at_revision
 from armcal.kinematics.params import parameter_set
 from armcal.report.render import read_results, results_file
 from armcal.results.changes import ALPHA, changes, check_same_robot
-from armcal.results.calibrated import yaml_path
+from armcal.spec.locations import yaml_path
 from armcal.spec import LoadedSpec, load_spec
 from armcal.spec.loader import spec_from_bytes
 from armcal.units import from_internal

@@ -24,7 +24,8 @@ from round_trip import starting_residuals
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
 from armcal.diagnose.calibration import identify_and_diagnose
-from armcal.evaluate.summary import summarize
+from armcal.evaluate.run_figures import run_figures
+from armcal.results.build import build_results
 from armcal.kinematics.compiler import compile_robot
 from armcal.results.calibrated import calibrated_text
 from armcal.results.campaign_block import campaign
@@ -45,7 +46,7 @@ def calibrate(spec_path):
     calibration = device.prepare(raw)
     validation = device.prepare(read_measurements(spec_path.parent / spec.data.validation, spec))
     calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
-    results = summarize(loaded, calibrated, calibration.rows, {}, {}, [], campaign(loaded, calibration, validation, (False, False)))
+    results = build_results(loaded, run_figures(loaded, calibrated, calibration.rows, {}, {}, [], campaign(loaded, calibration, validation, (False, False))))
     out = spec_path.parent / "out"
     out.mkdir()
     (out / "calibrated.yaml").write_text(calibrated_text(loaded, results, calibrated, out))

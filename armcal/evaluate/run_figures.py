@@ -1,4 +1,5 @@
-"""results.json from the stages' outputs: statistics, identifiability, parameters, diagnosis, evaluation."""
+"""A run's figures from the stages' outputs, plain (internal units): statistics, identifiability, the fitted
+parameters, diagnosis, evaluation. results/build.py assembles results.json from them."""
 
 from __future__ import annotations
 
@@ -14,9 +15,6 @@ from armcal.evaluate.features import evaluation
 from armcal.evaluate.residuals import before_after, distance_before_after, improvement, readings_residuals, residual_unit
 from armcal.identify.uncertainty import residual_stats
 from armcal.kinematics.parallel import parallel_axes
-from armcal.results.breakdown import after_fit
-from armcal.results.build import build_results, parameter_rows
-from armcal.results.schema import Results
 from armcal.spec import LoadedSpec
 from armcal.spec.sections import EFFECT_TYPES
 from armcal.units import from_internal
@@ -38,9 +36,11 @@ def reported_names(calibration: Calibration) -> set[str]:
     return {n for n in names if n.split(".")[0] not in EFFECT_TYPES or n in in_model}
 
 
-def summarize(
+def run_figures(
     loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray, tasks: dict, evidence: dict, plots: list[str], measured: dict
-) -> Results:
+) -> dict:
+    """The figures results.json reports, by its keys; ``parameters`` as the fitted entries, values and standard
+    deviations (internal units) with the base set and the held parameters' reasons."""
     spec = loaded.spec
     reading_kind = spec.device.reading_kind
     _, unit = residual_unit(reading_kind)
@@ -55,8 +55,7 @@ def summarize(
     ident = result.identifiability
     uncertainty = result.uncertainty
     outliers = raw_rows[problem.residuals.sample[result.outliers]] if len(result.outliers) else []
-    return build_results(
-        loaded,
+    return dict(
         status="converged" if identified.features is not None or result.solver.converged else "not_converged",
         unit=unit,
         identifiability={
@@ -69,13 +68,13 @@ def summarize(
             "unidentifiable": list(ident.unidentifiable),
             "design_point": _design_point(identified, start, problem),
             "flat_directions": list(result.conditioning.flat),
-            "breakdown": after_fit([e for e, _, _ in entries], set(ident.base), dict(ident.fixed)),
             "parallel_axes": [
                 {"joints": (p.joint, p.joint + 1), "added": f"{p.name}.beta" if p.beta_added else None, "held": f"{p.name}.d" if p.d_held else None}
                 for p in parallel_axes(spec.robot)
             ],
         },
-        parameters=parameter_rows(loaded, [e for e, _, _ in entries], np.array([v for _, v, _ in entries]), np.array([s for _, _, s in entries]), identified_names),
+        parameters={"entries": [e for e, _, _ in entries], "values": np.array([v for _, v, _ in entries]), "std": np.array([s for _, _, s in entries]),
+                    "identified": identified_names, "base": set(ident.base), "fixed": dict(ident.fixed)},
         residuals={"calibration": calibration_pair, "validation": validation_pair},
         residuals_3d=_distances(problem, calibration.validation, start, identified.theta),
         improvement_factor={

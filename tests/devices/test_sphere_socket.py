@@ -171,3 +171,22 @@ def test_a_ball_that_is_no_robot_target_and_an_unknown_socket_are_located(tmp_pa
         (line_of("ball: probe"), "device.ball", "ball 'probe' is not a robot target (targets: ball)"),
         (line_of("socket9"), "device.distances[0].between[1]", "socket 'socket9' is not in device.sockets (socket1, socket2, socket3, socket4)"),
     ]
+
+
+def test_every_planned_or_random_design_keeps_the_certified_distance(tmp_path):
+    """`armcal plan` scores designs by their information: the certified distance (a reading of no pose) is an
+    entry every design keeps, so a random design is no less determined than the plan; without it the scale is lost."""
+    from armcal.procedures import pose_selection as ps
+
+    spec = load_spec(_starter(tmp_path)).spec
+    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    fixed = ps.fixed_readings(device, kinematics)
+    assert fixed is not None and fixed.keys == ((),)  # an entry with no sample: the pseudo-observation alone
+    fresh = ps.candidate_poses(spec, kinematics, device, 80, 3)
+    information = ps.information(spec, kinematics, device, ps.Candidates.joined([fixed, fresh]))
+    assert len(information.base) == reasoned_count(6, 0, len(spec.device.sockets), distance=True)
+    rows = ps.random_rows(1 + len(fresh), 40, 1, np.random.default_rng(4))
+    assert rows[0] == 0
+    covariance = lambda rows: ps.Selection(rows, ps.design_information(information.blocks, rows), "D").covariance()  # noqa: E731
+    assert np.isfinite(covariance(rows)).all()
+    assert not np.isfinite(covariance(rows[1:])).all()  # the same poses without the distance: the scale is free

@@ -185,7 +185,7 @@ def run_diagnosis(
     theta0 = problem.parameters.nominal.copy()
     if start is not None:
         theta0[: len(start)] = start
-    _, J_design = problem.evaluate(theta0)
+    J_design = problem.design_jacobian(theta0)
     design = analyse(J_design, problem.parameters, problem.parameters.free)
     result = fit(problem, fit_settings, start=theta0, identifiability=design)
     rounds, added, remaining = [], [], list(pool)

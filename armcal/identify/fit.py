@@ -42,8 +42,7 @@ class FitResult:
 
 def design_identifiability(problem: Problem, design: np.ndarray) -> Identifiability:
     """The base set of ``problem``'s free parameters at the design point ``design``."""
-    _, J = problem.evaluate(design)
-    return analyse(J, problem.parameters, problem.parameters.free)
+    return analyse(problem.design_jacobian(design), problem.parameters, problem.parameters.free)
 
 
 def fit(problem: Problem, settings: Fit, start: np.ndarray | None = None, identifiability: Identifiability | None = None) -> FitResult:
@@ -56,7 +55,7 @@ def fit(problem: Problem, settings: Fit, start: np.ndarray | None = None, identi
     design = None
     if identifiability is None:  # the design point is the start: its evaluation serves both
         design = problem.evaluate(theta0)
-        identifiability = analyse(design[1], parameters, parameters.free)
+        identifiability = analyse(design[1] if problem.design is None else problem.design_jacobian(theta0), parameters, parameters.free)
     base = np.array([parameters.index(name) for name in identifiability.base], dtype=int)
     initial = None if design is None else (design[0], design[1][:, base])
     del design  # the Jacobian of every parameter: only its base columns are kept

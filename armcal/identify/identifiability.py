@@ -1,7 +1,8 @@
 """Which parameters the data can determine: QR with column pivoting of the scaled Jacobian.
 
 The base set is decided once per model and campaign design, at the design point
-(the nominal, or the nominal with the instrument registered), and kept for every
+(the nominal, or the nominal with the instrument registered; for a contact instrument at the
+recorded poses moved into the contacts the nominal model holds, Problem.design_jacobian), and kept for every
 refit, fold and study: away from the design a redundancy the geometry has exactly
 (parallel axes, a target on the last axis) is broken by the fitted errors and would
 look identifiable, with a condition number of 1e7 and a fit that slides along the

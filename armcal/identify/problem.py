@@ -22,7 +22,7 @@ import casadi as ca
 import numpy as np
 
 from armcal.dataio.measurements import Measurements
-from armcal.devices.base import DeviceModel, Key
+from armcal.devices.base import DeviceModel, Key, held_in_contact
 from armcal.effects.measurement import EffectSet, extras_matrix
 from armcal.identify.compiled import compiled
 from armcal.kinematics.compiler import KinematicModel
@@ -47,6 +47,15 @@ class Problem:
     n_robot: int
     blocks: tuple["KeyBlock", ...]  # the samples of each key, in the order of the residuals
     residuals: Residual
+    design: "Problem | None" = None  # a contact instrument's: the same readings where the nominal model holds its contacts
+
+    def design_jacobian(self, theta: np.ndarray) -> np.ndarray:
+        """The Jacobian that decides the base set at the design point ``theta`` (identifiability.py): at the data's
+        poses; for a contact instrument at those poses moved into the contacts the nominal model holds (``design``).
+        At the recorded poses it holds none: a contact's residual is a vector, and a motion of the robot and every
+        socket together (a rigid motion, a scale) turns or stretches it instead of leaving it unchanged, so a
+        Jacobian there would count such a motion as information of the size of the nominal model's error."""
+        return (self.design or self).evaluate(theta)[1]
 
     def evaluate(self, theta: np.ndarray, columns: np.ndarray | None = None, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Weighted residuals (M,) and their Jacobian (M, len(columns)), columns of theta (default: all).
@@ -182,9 +191,11 @@ def _value_and_jacobian(kinematics: KinematicModel, device: DeviceModel, effects
 
 
 def build_problem(
-    kinematics: KinematicModel, device: DeviceModel, data: Measurements, effects: EffectSet = EffectSet()
+    kinematics: KinematicModel, device: DeviceModel, data: Measurements, effects: EffectSet = EffectSet(), in_contact: bool = False
 ) -> Problem:
-    """Assemble residuals of all samples of ``data`` (already prepared by the device), with ``effects``."""
+    """Assemble residuals of all samples of ``data`` (already prepared by the device), with ``effects``; for a contact
+    instrument with its ``design``, the problem at the poses moved into the nominal model's contacts (unless
+    ``in_contact``: the data's poses hold them already)."""
     parameters = combined_parameters(kinematics, device, effects)
     samples, channels, kinds, keys, sigmas, measured = [], [], [], [], [], []
     key_rows = data.groups()
@@ -193,6 +204,15 @@ def build_problem(
     canonical = sorted(key_rows, key=str)  # one library serves every data set with the same keys
     functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, effects, k) for k in canonical])))
     extras = extras_matrix(data.extras, len(data), kinematics.dof)
+    design = None
+    if device.contact and not in_contact:
+        nominal = parameters.nominal
+        moved = data.q.copy()
+        for key, rows in data.groups().items():
+            if device.target(key) is not None:
+                contact = np.stack([data.readings[c.name][rows] for c in device.channels(key)], axis=1)
+                moved[rows] = _held_by_nominal(functions[key], data.q[rows], extras[rows], contact, nominal, kinematics.limits)
+        design = build_problem(kinematics, device, replace(data, q=moved), effects, in_contact=True)
     blocks = []
     for key, rows in key_rows.items():
         key_channels = device.channels(key)
@@ -225,7 +245,17 @@ def build_problem(
         sigma=np.concatenate(sigmas),
         measured=np.concatenate(measured),
     )
-    return Problem(parameters, len(kinematics.parameters), tuple(blocks), residual)
+    return Problem(parameters, len(kinematics.parameters), tuple(blocks), residual, design)
+
+
+def _held_by_nominal(function: ca.Function, Q: np.ndarray, X: np.ndarray, measured: np.ndarray, theta: np.ndarray, limits: np.ndarray) -> np.ndarray:
+    """Joint values (N, n) nearest ``Q`` at which the model at ``theta`` reads a key's ``measured`` contact readings
+    (``function``: the key's readings and Jacobian); a pose it cannot hold within the limits keeps its recorded values."""
+    def read(Q: np.ndarray) -> tuple[None, np.ndarray]:
+        return None, np.array(function.map(len(Q))(Q.T, X.T, theta)[0]).T
+
+    moved, held = held_in_contact(read, Q, measured, limits)
+    return np.where(held[:, None], moved, Q)
 
 
 def reweighted(problem: Problem, sigma: np.ndarray) -> Problem:
@@ -243,7 +273,8 @@ def reweighted(problem: Problem, sigma: np.ndarray) -> Problem:
             weights.append(1.0 / sigma[start : start + len(c.rows)])
             start += len(c.rows)
         blocks.append(block.with_weights(weights))
-    return replace(problem, blocks=tuple(blocks), residuals=replace(problem.residuals, sigma=sigma))
+    design = None if problem.design is None else reweighted(problem.design, sigma)
+    return replace(problem, blocks=tuple(blocks), residuals=replace(problem.residuals, sigma=sigma), design=design)
 
 
 def with_values(parameters: ParameterSet, values: np.ndarray) -> ParameterSet:

@@ -93,9 +93,12 @@ def candidate_poses(spec: Spec, kinematics: KinematicModel, device: DeviceModel,
 
 def fixed_readings(device: DeviceModel, kinematics: KinematicModel) -> Candidates | None:
     """What every design of the instrument reads besides its poses, as one entry to keep first in a design: a
-    theodolite's scale-bar sightings (with the bar's length, a pseudo-observation); None if nothing."""
+    theodolite's scale-bar sightings (with the bar's length, a pseudo-observation), or the pseudo-observations alone
+    (certified socket distances: an entry with no sample); None if nothing."""
     fixed = fixed_samples(device, kinematics.dof)
-    return None if fixed is None else Candidates(np.zeros((1, kinematics.dof)), (fixed.keys,), {})
+    if fixed is None and not device.pseudo_observations():
+        return None
+    return Candidates(np.zeros((1, kinematics.dof)), (fixed.keys if fixed is not None else (),), {})
 
 
 def keyed_candidates(Q: np.ndarray, kinematics: KinematicModel, device: DeviceModel) -> Candidates:

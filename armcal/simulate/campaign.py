@@ -19,7 +19,7 @@ from armcal.dataio.measurements import Measurements
 from armcal.errors import UserError
 from armcal.spec.instrument import AUTO
 from armcal.devices import device_model
-from armcal.devices.base import DeviceModel
+from armcal.devices.base import DeviceModel, held_in_contact
 from armcal.kinematics.compiler import compile_robot
 from armcal.procedures import Plan, plan
 from armcal.effects.library import from_spec, needs
@@ -141,7 +141,7 @@ def _measure(settings, robot: TrueRobot, device: DeviceModel, pd, planned: Plan,
         if device.contact and target is not None:
             sigma = device.sigma(key, np.zeros_like(values)) * settings.noise_factor
             offset = rng.normal(size=values.shape) * sigma if settings.noise else np.zeros_like(values)
-            q[rows], held = _held_in_contact(true_readings, planned.q[rows], offset, robot.kinematics.limits)
+            q[rows], held = held_in_contact(true_readings, planned.q[rows], offset, robot.kinematics.limits)
             keep[rows] &= held
         else:
             values, readable, recorded = device.simulated_readings(key, values, poses, pd, settings, rng)
@@ -173,24 +173,3 @@ def _true_readings(robot: TrueRobot, device: DeviceModel, key, pd: np.ndarray, e
         return poses, np.array(effects.reading_function(device, key).map(len(Q))(values.T, effects.values())).T
 
     return read
-
-
-CONTACT_TOLERANCE = 1e-9  # mm (or rad): a contact's residual the solved joint values leave
-CONTACT_STEP = 1e-6  # rad (or mm): the central-difference step of the contact's joint Jacobian
-
-
-def _held_in_contact(read, Q: np.ndarray, offset: np.ndarray, limits: np.ndarray, iterations: int = 30) -> tuple[np.ndarray, np.ndarray]:
-    """The joint values nearest the planned ``Q`` (N, n) at which the true robot holds its contact (a ball in its
-    socket) up to ``offset`` (N, channels: the seating's noise): the readings equal the offset. Gauss-Newton steps of
-    minimum norm in joint space (the robot is moved no further than the contact needs); and which solved within the
-    joint limits."""
-    Q = np.array(Q, dtype=float)
-    step = CONTACT_STEP * np.eye(Q.shape[1])
-    for _ in range(iterations):
-        r = read(Q)[1] - offset
-        if np.max(np.abs(r), initial=0.0) < CONTACT_TOLERANCE:
-            break
-        J = np.stack([(read(Q + h)[1] - read(Q - h)[1]) / (2 * CONTACT_STEP) for h in step], axis=2)  # (N, c, n)
-        Q = Q - np.einsum("nij,nj->ni", np.linalg.pinv(J), r)
-    held = np.all(np.abs(read(Q)[1] - offset) < 1e3 * CONTACT_TOLERANCE, axis=1)
-    return Q, held & np.all((Q >= limits[:, 0]) & (Q <= limits[:, 1]), axis=1)

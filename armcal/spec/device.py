@@ -13,3 +13,4 @@ from pydantic import Field
 from armcal.devices.registry import INSTRUMENTS
 
 Device = Annotated[Union[tuple(model.section for model in INSTRUMENTS.values())], Field(discriminator="type")]
+DEVICE_TYPES = ", ".join(INSTRUMENTS)  # the device.type values, for descriptions

@@ -31,7 +31,7 @@ from pydantic import Field, field_validator
 from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import pose_from_symbols
-from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
+from armcal.kinematics.params import ParameterSet, parameter_entry, parameter_set, pose_entries
 from armcal.spec.base import AngleParam, Length, LengthParam, Number, SpecModel, fixed
 from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma
 from armcal.spec.robot import Pose
@@ -39,6 +39,7 @@ from armcal.spec.starter import flange_point, mm, random_poses
 
 CONTACT = (Channel("contact", "length"),)
 PLANE_FIELDS = ("offset", "tilt1", "tilt2")
+SCALE_TOLERANCE = 1e-9  # relative residual of the held planes' common point above which they have none
 CONE = np.radians(30.0)  # half-angle of the cone about the normal that random approach directions lie in
 
 
@@ -77,6 +78,11 @@ def tilted_normal(plane: Plane, tilt1, tilt2, symbolic: bool = False):
     return sin(tilt2) * u1 + cos(tilt2) * (cos(tilt1) * n0 - sin(tilt1) * u2)
 
 
+def _holds_a_length(robot) -> bool:
+    """Whether the spec holds a nonzero length of the robot's chain, tool or targets (a scale the fit keeps)."""
+    return any(e.kind == "length" and not e.free and not e.reason and e.nominal != 0 for e in parameter_set(robot).entries)
+
+
 class PlaneContact(DeviceSpec):
     """Touch probe on planes: a ball on the robot touches known or free planes (a datum cube's faces); the joint
     values are recorded at each touch."""
@@ -107,6 +113,25 @@ class PlaneContact(DeviceSpec):
                 "every plane is free, so the planes carry the robot base's pose (the robot and the planes moved together "
                 "change no contact): hold robot_base (vary: false), or hold a plane known in the planes' frame"
             )
+
+        if not self.fixes_scale() and not _holds_a_length(spec.robot):
+            yield ("device", "planes"), (
+                "nothing fixes the length scale: the ball-centre planes of the planes whose offsets are held meet in a "
+                "point (or no offset is held) and no length of the robot is held, so the robot shrunk about that point, "
+                "the free planes with it, touches the same way, and a fit shrinks the robot towards it; hold the offsets "
+                "of two parallel planes (opposite faces of a cube of certified size) or a length you know (the probe's)"
+            )
+
+    def fixes_scale(self) -> bool:
+        """Whether the planes fix the length scale: the ball-centre planes {n . x = offset + radius} of those whose
+        offsets are held have no common point (a scaling about a common point would keep every one of them)."""
+        held = [plane for plane in self.planes.values() if not plane.offset.vary]
+        if not held:
+            return False
+        N = np.array([plane.normal for plane in held])
+        d = np.array([plane.offset.value + self.radius for plane in held])
+        centre = np.linalg.lstsq(N, d, rcond=None)[0]
+        return bool(np.max(np.abs(N @ centre - d)) > SCALE_TOLERANCE * max(1.0, np.max(np.abs(d))))
 
     def parameter_location(self, name: str) -> list[str]:
         if name.startswith("plane."):

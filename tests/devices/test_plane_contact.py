@@ -6,6 +6,7 @@ instrument), an independent numpy version of the contact geometry, and the count
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,10 @@ from scipy.spatial.transform import Rotation
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
 from armcal.errors import SpecError
+from armcal.identify.fit import design_identifiability
+from armcal.identify.problem import build_problem
 from armcal.kinematics.compiler import compile_robot
+from armcal.simulate import simulate_campaign
 from armcal.simulate.truth import TrueRobot
 from armcal.spec import load_spec
 
@@ -112,6 +116,34 @@ def test_identifiable_count_with_a_known_cube(cube):
     assert identifiability["rank"] == 4 * 6 + 6 - 3
     held = {f["name"] for f in identifiability["fixed"]}
     assert not any(name.startswith("robot_base.") for name in held)  # the base's pose in the cube: all six identified
+
+
+def _design_rank(spec_path: Path) -> int:
+    """Identified parameters at the design point (the nominal) of the spec's simulated calibration campaign."""
+    spec = load_spec(spec_path).spec
+    device = device_model(spec)
+    data = device.prepare(simulate_campaign(spec, spec_path.parent).calibration)
+    problem = build_problem(compile_robot(spec.robot), device, data)
+    return design_identifiability(problem, problem.parameters.nominal).rank
+
+
+def test_identifiable_count_with_the_faces_tilts_free(tmp_path):
+    """Every face's tilts free, the offsets held: the faces turned together about the cube's centre, and the robot
+    base with them, change no contact: 27 + 2 x 5 - 3 = 34 (docs/devices/plane_contact.md)."""
+    spec = _new_spec(tmp_path, lambda text: text.replace("vary: false}, patch", "vary: false}, tilt1: 0, tilt2: 0, patch"))
+    assert _design_rank(spec) == 27 + 2 * 5 - 3
+
+
+def test_planes_that_fix_no_length_are_refused(tmp_path):
+    """Every plane free: a scaling of the scene and a rigid motion of it change no contact; validate says both."""
+    def edit(text: str) -> str:
+        return re.sub(r"offset: \{value: ([\d.]+), vary: false\}", r"offset: \1, tilt1: 0, tilt2: 0", text)
+    path = _new_spec(tmp_path, edit)
+    with pytest.raises(SpecError) as caught:
+        load_spec(path)
+    messages = {issue.field: issue.message for issue in caught.value.issues}
+    assert set(messages) == {"device.planes", "device.robot_base"}
+    assert "nothing fixes the length scale" in messages["device.planes"] and "hold robot_base" in messages["device.robot_base"]
 
 
 def test_the_hidden_harmonic_is_found(hidden):

@@ -9,8 +9,10 @@ towards the probe, d its offset; the robot base sits there at P (robot_base):
 
     contact = n(tilt1, tilt2) . (P s(q)) - d - radius        s(q): the ball centre in the robot base frame
 
-the point-on-plane constraint of Stone's (6.19) with the base transform of (4.48),
-one scalar reading per pose as with Goswami's ball-bar (G, "Pose Measurements").
+Stone's plane in normal form, (4.6)-(4.7), whose error function is the signed
+perpendicular distance for a unit normal, seen through the base transform P of
+(4.48); one scalar reading per pose, partial pose information as with Goswami's
+ball-bar (G, "Pose Measurements: How Many Dimensions Are Enough?").
 The nominal normal n0 is turned by tilt1 about u1 and tilt2 about u2, two unit
 axes square to it: u2 = n0 x e / |n0 x e| (e the coordinate axis most nearly
 square to n0, the first of a tie), u1 = u2 x n0, so that (u1, u2, n0) is right-handed and

@@ -297,7 +297,7 @@ def import_ipa(
 @user_errors
 def new(
     robot: Annotated[str | None, typer.Option("--robot", help="A library robot (see --list), e.g. ur5e.", metavar="NAME")] = None,
-    device: Annotated[str | None, typer.Option("--device", help="tracker, ballbar, theodolite or sonic_digitizer.", metavar="TYPE")] = None,
+    device: Annotated[str | None, typer.Option("--device", help="A measuring device type (docs/devices/README.md lists them).", metavar="TYPE")] = None,
     out: Annotated[Path | None, typer.Option("--out", help="The spec to write (default: <robot>-<device>.yaml here).", metavar="SPEC")] = None,
     force: Annotated[bool, typer.Option("--force", help="Replace an existing spec.")] = False,
     list_robots: Annotated[bool, typer.Option("--list", help="List the library's robots and exit.")] = False,

@@ -12,4 +12,5 @@ from pydantic import Field
 
 from armcal.devices.registry import INSTRUMENTS
 
+TYPES = ", ".join(INSTRUMENTS)  # the registered device types, as the spec's description of device lists them
 Device = Annotated[Union[tuple(model.section for model in INSTRUMENTS.values())], Field(discriminator="type")]

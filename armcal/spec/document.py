@@ -7,7 +7,7 @@ from typing import Literal
 from pydantic import Field
 
 from armcal.spec.base import SpecModel
-from armcal.spec.device import Device
+from armcal.spec.device import TYPES, Device
 from armcal.spec.procedure import Procedure
 from armcal.spec.robot import Robot
 from armcal.spec.sections import Acceptance, Data, Diagnose, Effect, Fit, Report, Simulate
@@ -18,7 +18,7 @@ class Spec(SpecModel):
 
     armcal: Literal[1] = Field(1, description="spec format version")
     robot: Robot = Field(description="the chain (convention: dh, mdh, s_model, six_parameter), its nominal parameters, base, tool and targets")
-    device: Device = Field(description="the measuring instrument (type: sonic_digitizer, ballbar, theodolite, tracker)")
+    device: Device = Field(description=f"the measuring instrument (type: {TYPES})")
     procedure: Procedure = Field(description="how the calibration poses are planned (type: circle_point, shells, poses)")
     validation: Procedure | None = Field(None, description="procedure of the held-out validation set")
     data: Data | None = None

@@ -127,18 +127,38 @@ def _design_rank(spec_path: Path) -> int:
     return design_identifiability(problem, problem.parameters.nominal).rank
 
 
-def test_identifiable_count_with_the_faces_tilts_free(tmp_path):
-    """Every face's tilts free, the offsets held: the faces turned together about the cube's centre, and the robot
-    base with them, change no contact: 27 + 2 x 5 - 3 = 34 (docs/devices/plane_contact.md)."""
-    spec = _new_spec(tmp_path, lambda text: text.replace("vary: false}, patch", "vary: false}, tilt1: 0, tilt2: 0, patch"))
-    assert _design_rank(spec) == 27 + 2 * 5 - 3
+def _free(faces: str, offsets: bool):
+    """An edit of the starting spec freeing the tilts of ``faces`` and, with ``offsets``, their offsets."""
+    def edit(text: str) -> str:
+        for face in faces.split():
+            held = rf"({face}: \{{normal: \[[^\]]*\], )offset: \{{value: ([\d.]+), vary: false\}}"
+            text = re.sub(held, r"\1offset: \2, tilt1: 0, tilt2: 0" if offsets else r"\g<0>, tilt1: 0, tilt2: 0", text)
+        return text
+    return edit
+
+
+@pytest.mark.parametrize("edits, expected", [
+    # every face's tilts free: the faces turned together about the cube's centre keep their offsets, and the robot
+    # base turns with them: three rotations lost
+    ([("front back left right top", False)], 27 + 2 * 5 - 3),
+    # front, back and top entirely free, left and right tilts free with their offsets (the cube's width) held: every
+    # rigid motion but the translation across the held gap is lost (five), the gap fixes the scale
+    ([("front back top", True), ("left right", False)], 27 + 3 * 3 + 2 * 2 - 5),
+], ids=["tilts", "width"])
+def test_identifiable_count_with_free_planes(tmp_path, edits, expected):
+    """docs/devices/plane_contact.md's counts with free planes: 27 + what the free planes add - the lost motions."""
+    def edit(text: str) -> str:
+        for faces, offsets in edits:
+            text = _free(faces, offsets)(text)
+        return text
+    spec = _new_spec(tmp_path, edit)
+    assert "tilt1: 0" in spec.read_text()
+    assert _design_rank(spec) == expected
 
 
 def test_planes_that_fix_no_length_are_refused(tmp_path):
     """Every plane free: a scaling of the scene and a rigid motion of it change no contact; validate says both."""
-    def edit(text: str) -> str:
-        return re.sub(r"offset: \{value: ([\d.]+), vary: false\}", r"offset: \1, tilt1: 0, tilt2: 0", text)
-    path = _new_spec(tmp_path, edit)
+    path = _new_spec(tmp_path, _free("front back left right top", True))
     with pytest.raises(SpecError) as caught:
         load_spec(path)
     messages = {issue.field: issue.message for issue in caught.value.issues}

@@ -169,10 +169,8 @@ class PlaneContact(DeviceSpec):
 
     def describe(self, length) -> tuple[str, list[str]]:
         known = [name for name, plane in self.planes.items() if not any(getattr(plane, f).vary for f in PLANE_FIELDS)]
-        return f"touch probe on planes, ball radius {length(self.radius)}", [
-            f"probe {self.probe}",
-            f"planes {', '.join(self.planes)}" + (f" (known: {', '.join(known)})" if known else ""),
-        ]
+        held = "all known" if len(known) == len(self.planes) else f"known: {', '.join(known)}" if known else "all fitted"
+        return f"touch probe on planes, ball radius {length(self.radius)}", [f"probe {self.probe}", f"planes {', '.join(self.planes)} ({held})"]
 
 
 class PlaneContactModel(DeviceModel):

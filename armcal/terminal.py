@@ -302,7 +302,7 @@ def simulation_summary(loaded: LoadedSpec, campaign) -> str:
             lines.append(f"    lost: {sum(lost.values())} readings {what} on the simulated robot, planned within it on the nominal "
                          f"model: the robot's errors moved them out ({', '.join(f'{k} {n}' for k, n in lost.items())})")
             reasons.setdefault(reason, keys)
-    if reasons:
+    if any(reasons.values()):  # a reason without spec keys (a random keyed pose out of reach) has nothing to look at
         lines.append("  look at: " + "; ".join(f"{why} -> {keys}" for why, keys in reasons.items() if keys))
     return "\n".join(lines)
 

@@ -9,12 +9,13 @@ from __future__ import annotations
 
 from armcal.devices.ballbar import BallBarModel
 from armcal.devices.base import DeviceModel
+from armcal.devices.plane_contact import PlaneContactModel
 from armcal.devices.sonic import SonicModel
 from armcal.devices.sphere_socket import SphereSocketModel
 from armcal.devices.theodolite import TheodoliteModel
 from armcal.devices.tracker import TrackerModel
 
-INSTRUMENTS: dict[str, type[DeviceModel]] = {model.type: model for model in (SonicModel, BallBarModel, TheodoliteModel, TrackerModel, SphereSocketModel)}
+INSTRUMENTS: dict[str, type[DeviceModel]] = {model.type: model for model in (SonicModel, BallBarModel, TheodoliteModel, TrackerModel, SphereSocketModel, PlaneContactModel)}
 
 
 def accepting(effect_type: str) -> list[str]:

@@ -36,7 +36,7 @@ def test_field_errors_are_located_and_plain():
             13,
             9,
             "device.type",
-            "'laser_pointer' is not a known type; use one of 'sonic_digitizer', 'ballbar', 'theodolite', 'tracker', 'sphere_socket'.",
+            "'laser_pointer' is not a known type; use one of 'sonic_digitizer', 'ballbar', 'theodolite', 'tracker', 'sphere_socket', 'plane_contact'.",
         ),
         (16, 10, "procedure.count", "Must be at least 1, got 0."),
     ]

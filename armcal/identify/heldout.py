@@ -45,4 +45,4 @@ def held_out(problem: Problem, kinematics: KinematicModel, data: Measurements, i
     """The validation problem, re-registering the instrument when it was moved."""
     if not instrument_moved:
         return problem
-    return MovedInstrument(problem.parameters, problem.n_robot, problem.blocks, problem.residuals, kinematics, data)
+    return MovedInstrument(problem.parameters, problem.n_robot, problem.blocks, problem.residuals, problem.design, kinematics=kinematics, data=data)

@@ -16,7 +16,7 @@ from armcal.evaluate.residuals import before_after, distance_before_after, impro
 from armcal.identify.uncertainty import residual_stats
 from armcal.kinematics.parallel import parallel_axes
 from armcal.spec import LoadedSpec
-from armcal.spec.sections import EFFECT_TYPES
+from armcal.spec.effect_vocabulary import EFFECT_TYPES
 from armcal.units import from_internal
 
 

@@ -13,7 +13,7 @@ from armcal.errors import either, with_article
 from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
 from armcal.spec.robot import SixParameterRobot
-from armcal.spec.sections import JointBending, JointCompliance, JointCoupling
+from armcal.spec.effect_vocabulary import JointBending, JointCompliance, JointCoupling
 
 Loc = tuple[str | int, ...]
 Problem = tuple[Loc, str]

@@ -10,7 +10,8 @@ from armcal.spec.base import SpecModel
 from armcal.spec.device import DEVICE_TYPES, Device
 from armcal.spec.procedure import Procedure
 from armcal.spec.robot import Robot
-from armcal.spec.sections import Acceptance, Data, Diagnose, Effect, Fit, Report, Simulate
+from armcal.spec.effect_vocabulary import Effect
+from armcal.spec.sections import Acceptance, Data, Diagnose, Fit, Report, Simulate
 
 
 class Spec(SpecModel):

@@ -25,7 +25,8 @@ from armcal.errors import SpecError
 from armcal.identify.fit import design_identifiability
 from armcal.kinematics.compiler import compile_robot
 from armcal.spec import load_spec
-from armcal.spec.sections import EFFECT_TYPES, Diagnose, Fit
+from armcal.spec.effect_vocabulary import EFFECT_TYPES
+from armcal.spec.sections import Diagnose, Fit
 
 NOMINAL = {"rows": [(t * DEG, d, a, al * DEG, 0.0) for t, d, a, al in ROBOTS["puma560"]["dh"]]}
 

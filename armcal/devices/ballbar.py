@@ -48,9 +48,6 @@ class BallBar(DeviceSpec):
     target_field: ClassVar[str] = "spheres"
     held_out_metric: ClassVar[str] = "bar-length error"
 
-    def seen_targets(self) -> list[str]:
-        return list(self.spheres)
-
     def check_procedure(self, procedure, loc):
         yield from super().check_procedure(procedure, loc)
         if procedure.type == "poses" and procedure.file is None:

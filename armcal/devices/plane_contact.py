@@ -102,13 +102,8 @@ class PlaneContact(DeviceSpec):
     target_field: ClassVar[str] = "probe"
     held_out_metric: ClassVar[str] = "contact residual (the ball's distance from the plane it touches)"
 
-    def seen_targets(self) -> list[str]:
-        return [self.probe]
-
     def check(self, spec):
-        if self.probe not in spec.robot.targets:
-            known = ", ".join(spec.robot.targets) or "none defined"
-            yield ("device", "probe"), f"probe '{self.probe}' is not a robot target (targets: {known})"
+        yield from super().check(spec)
         base_free = any(getattr(self.robot_base, f).vary for f in ("x", "y", "z", "rx", "ry", "rz"))
         if base_free and all(getattr(plane, f).vary for plane in self.planes.values() for f in PLANE_FIELDS):
             yield ("device", "robot_base"), (

@@ -50,16 +50,12 @@ class SphereSocket(DeviceSpec):
     noise_groups: list[Literal["kind", "socket"]] = Field(["kind"], description=GROUPS_HELP)
 
     locates_targets: ClassVar[bool] = True
+    target_field: ClassVar[str] = "ball"
     held_out_metric: ClassVar[str] = "seating residual (ball centre minus socket centre)"
-
-    def seen_targets(self) -> list[str]:
-        return [self.ball]
 
     def check(self, spec):
         """The ball must be a robot target; a certified distance must name two of the sockets."""
-        if self.ball not in spec.robot.targets:
-            known = ", ".join(spec.robot.targets) or "none defined"
-            yield ("device", "ball"), f"ball '{self.ball}' is not a robot target (targets: {known})"
+        yield from super().check(spec)
         for i, distance in enumerate(self.distances):
             for j, name in enumerate(distance.between):
                 if name not in self.sockets:

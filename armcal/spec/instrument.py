@@ -85,8 +85,9 @@ class DeviceSpec(SpecModel):
     held_out_metric: ClassVar[str] = "3D position error of the targets (instrument frame)"
 
     def seen_targets(self) -> list[str]:
-        """The robot targets it measures."""
-        return list(getattr(self, "targets", ()))
+        """The robot targets it measures (those its ``target_field`` names)."""
+        named = getattr(self, self.target_field, ())
+        return [named] if isinstance(named, str) else list(named)
 
     def sees_orientation(self) -> bool:
         """Whether its readings include the orientation of the target's frame."""
@@ -94,12 +95,14 @@ class DeviceSpec(SpecModel):
 
     def check(self, spec) -> Iterator[tuple[Loc, str]]:
         """Cross-reference problems of the device section in ``spec`` (targets that are not the robot's...)."""
+        one = isinstance(getattr(self, self.target_field, ()), str)  # a field that names one target (a probe, a ball)
         for i, name in enumerate(self.seen_targets()):
             if name not in spec.robot.targets:
                 known = ", ".join(spec.robot.targets) or "none defined"
-                yield ("device", self.target_field, i), f"{self.target_field[:-1]} '{name}' is not a robot target (targets: {known})"
+                loc = ("device", self.target_field) if one else ("device", self.target_field, i)
+                yield loc, f"{self.target_field if one else self.target_field[:-1]} '{name}' is not a robot target (targets: {known})"
 
-    target_field: ClassVar[str] = "targets"  # the field that lists the robot targets it measures
+    target_field: ClassVar[str] = "targets"  # the field that names the robot targets it measures (a list, or one)
 
     def check_procedure(self, procedure, loc: Loc) -> Iterator[tuple[Loc, str]]:
         """Problems of a procedure of its own (``loc``: where the procedure is)."""

@@ -17,6 +17,7 @@ from armcal.evaluate.run_figures import run_figures
 from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import draw_plots
 from armcal.output_set import output_set, run_id, stamp_svg
+from armcal.progress import stage
 from armcal.report.render import certificate_files, check_templates, read_earlier, template_folders
 from armcal.results.build import build_results
 from armcal.results.schema import Results
@@ -67,17 +68,21 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     calibration_path = folder / spec.data.calibration
     kinematics = compile_robot(spec.robot)
     device = fitted_device(spec, calibration_path)
-    raw = read_measurements(calibration_path, spec)
-    calibration = device.prepare(raw)
-    validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
-    for data in filter(None, (calibration, validation)):
-        check_readable(device, data)
-    calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
+    with stage("reading the data"):
+        raw = read_measurements(calibration_path, spec)
+        calibration = device.prepare(raw)
+        validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
+        for data in filter(None, (calibration, validation)):
+            check_readable(device, data)
+    with stage("identifying the robot and diagnosing the residuals"):
+        calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
     truth = find_truth(calibration_path)
     identifier = run_id(inputs + ([calibration_path.parent / "truth.json"] if truth else []))
-    tasks = evaluation_tasks(spec, kinematics, calibrated, truth)
-    found = evidence(loaded, kinematics, device, calibrated, calibration)
-    plots = {name: stamp_svg(svg, identifier) for name, svg in draw_plots(found).items()}
+    with stage("evaluating the tasks (grid, ISO 9283 cube)"):
+        tasks = evaluation_tasks(spec, kinematics, calibrated, truth)
+    with stage("drawing the evidence"):
+        found = evidence(loaded, kinematics, device, calibrated, calibration)
+        plots = {name: stamp_svg(svg, identifier) for name, svg in draw_plots(found).items()}
     validation_path = folder / spec.data.validation if spec.data.validation else None
     simulated = (truth is not None, validation_path is not None and find_truth(validation_path) is not None)
     step = (spec.simulate or Simulate()).time_step
@@ -90,13 +95,14 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     results = build_results(loaded, figures, run_id=identifier, warnings=warnings,
                             simulated={"calibration": simulated[0], "validation": simulated[1] if validation_path else None})
     results = Results.model_validate({**results.model_dump(mode="json"), "history": history_entries(results.model_dump(mode="json"), earlier)})
-    files = {
-        "results.json": json.dumps(results.model_dump(mode="json"), indent=2) + "\n",
-        "calibrated.yaml": calibrated_text(loaded, results, calibrated, out_dir),
-        "residuals.csv": residuals_csv(calibrated, calibration.rows, validation.rows if validation is not None else None, spec.robot.units),
-        **plots,
-        **certificate_files(results.model_dump(mode="json"), plots, pdf, user_templates),
-    }
+    with stage("writing the certificate" + (" (PDF)" if pdf else "")):
+        files = {
+            "results.json": json.dumps(results.model_dump(mode="json"), indent=2) + "\n",
+            "calibrated.yaml": calibrated_text(loaded, results, calibrated, out_dir),
+            "residuals.csv": residuals_csv(calibrated, calibration.rows, validation.rows if validation is not None else None, spec.robot.units),
+            **plots,
+            **certificate_files(results.model_dump(mode="json"), plots, pdf, user_templates),
+        }
     publish(files, identifier)  # only now, all at once: a failure above leaves the previous set as it was
     return Outcome(results, out_dir)
 

@@ -144,12 +144,14 @@ def simulate(
     force: Annotated[bool, typer.Option("--force", help="Replace existing data files and truth.json.")] = False,
 ) -> None:
     """Write the spec's calibration and validation data, measured on a simulated true robot."""
+    from armcal.progress import stage
     from armcal.simulate import data_folder, write_simulation
     from armcal.spec import load_spec
     from armcal.terminal import simulation_summary, where_run_reads
 
     loaded = load_spec(spec)
-    campaign, written = write_simulation(loaded, out if out is not None else data_folder(loaded), force)
+    with stage("simulating the campaign"):
+        campaign, written = write_simulation(loaded, out if out is not None else data_folder(loaded), force)
     for path in written:
         typer.echo(f"wrote {path}")
     typer.echo(simulation_summary(loaded, campaign))
@@ -189,9 +191,12 @@ def report(
     history: HistoryOption = None,
 ) -> None:
     """Render the certificate again from results.json alone (and the plots beside it, and earlier results given)."""
+    from armcal.progress import stage
     from armcal.report.render import rerender
 
-    for path in rerender(results, pdf=not no_pdf, force=force, history=history or []):
+    with stage("rendering the certificate" + ("" if no_pdf else " (PDF)")):
+        written = rerender(results, pdf=not no_pdf, force=force, history=history or [])
+    for path in written:
         typer.echo(f"wrote {path}")
 
 

@@ -130,6 +130,11 @@ class PlaneContact(DeviceSpec):
         centre = np.linalg.lstsq(N, d, rcond=None)[0]
         return bool(np.max(np.abs(N @ centre - d)) > SCALE_TOLERANCE * max(1.0, np.max(np.abs(d))))
 
+    def base_frame_free(self, free: set[str]) -> bool:
+        """Free planes absorb a rigid motion of the robot with them (along or about their normals): its base frame is
+        then known up to one, as with a free robot_base."""
+        return super().base_frame_free(free) or any(name.startswith("plane.") for name in free)
+
     def parameter_location(self, name: str) -> list[str]:
         if name.startswith("plane."):
             _, plane, field = name.split(".")

@@ -66,6 +66,10 @@ class SphereSocket(DeviceSpec):
             if first < i:
                 yield ("device", "distances", i, "between"), f"the distance {'-'.join(distance.between)} is already certified as entry {first + 1}"
 
+    def base_frame_free(self, free: set[str]) -> bool:
+        """Free sockets absorb any rigid motion of the robot with them: its base frame is known up to one."""
+        return super().base_frame_free(free) or any(name.startswith("socket.") for name in free)
+
     def parameter_location(self, name: str) -> list[str]:
         socket, _, field = name.split(".", 1)[1].rpartition(".")  # socket.<name>.<x|y|z>
         return ["device", "sockets", socket, field]

@@ -69,8 +69,8 @@ class TaskControl:
     Table 6-3). The true robot
     then goes to both solutions. ``frame`` is the tool centre point: the tool, or the
     one target an instrument measured (the flange itself is then not observed, only
-    that point). ``teach``: when the instrument's transform to the robot base was
-    identified too, the base frame is only known up to a rigid motion, so the task
+    that point). ``teach``: when the instrument's placement was identified with the
+    robot (DeviceSpec.base_frame_free), the base frame is only known up to a rigid motion, so the task
     frame is taught (Stone: models describe the internal kinematics; the task frame is
     taught before the task) by the best rigid fit of the reached frames, for both
     controls alike.
@@ -235,7 +235,7 @@ def evaluation_tasks(spec, kinematics, calibrated, truth: dict | None) -> dict:
     theta = calibrated.identified.theta[: calibrated.problem.n_robot]
     free = {e.name for e in calibrated.problem.parameters.entries if e.free}
     setting = (kinematics, kinematics.parameters.nominal, theta, TrueRobot.from_record(kinematics, truth), spec.robot.units)
-    where = {"frame": measured_point(spec), "teach": any(name.startswith("robot_base.") for name in free)}
+    where = {"frame": measured_point(spec), "teach": spec.device.base_frame_free(free)}
     tasks = {}
     if "grid_task" in spec.report.tasks:
         tasks["grid_task"] = grid_evaluation(*setting, **where)

@@ -117,6 +117,11 @@ class DeviceSpec(SpecModel):
         """What the certificate calls the instrument, and its details; ``length`` shows a length with its unit."""
         raise NotImplementedError
 
+    def base_frame_free(self, free: set[str]) -> bool:
+        """Whether its readings fix the robot's base frame only up to a rigid motion, given the ``free`` parameters:
+        its own placement is identified with the robot (a free robot_base), so a task's frame is taught (evaluate/grid.py)."""
+        return any(name.startswith("robot_base.") for name in free)
+
     def parameter_location(self, name: str) -> list[str]:
         """The path in the spec of one of its model's parameters, e.g. robot_base.x -> device, robot_base, x."""
         head, _, field = name.rpartition(".")

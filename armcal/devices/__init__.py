@@ -1,4 +1,4 @@
-"""Measuring instruments, one module each (sonic digitizer, ball-bar, theodolite, tracker), behind DeviceModel."""
+"""Measuring instruments, one module each (registry.py lists them), behind DeviceModel."""
 
 from __future__ import annotations
 

@@ -140,8 +140,8 @@ class BallBarModel(DeviceModel):
         """Length of the extension rod of a key (0 without one)."""
         return self.spec.extension_rods[key[2]] if key[2] else 0.0
 
-    def mid_travel_length(self, key: Key) -> float:
-        """Nominal centre-to-centre length at mid-travel, with the key's extension rod."""
+    def reach(self, key: Key) -> float:
+        """Nominal centre-to-centre length at mid-travel, with the key's extension rod (the shells' radius)."""
         return self.spec.length.value + self.extension(key)
 
     def readings(self, key: Key, pose: ca.SX, sym: dict) -> ca.SX:
@@ -158,7 +158,7 @@ class BallBarModel(DeviceModel):
     def measurable(self, key: Key, readings: np.ndarray) -> np.ndarray:
         """Within the LVDT travel: |length - mid-travel length| <= travel / 2."""
         readings = np.atleast_2d(readings)
-        return np.abs(readings[:, 0] - self.mid_travel_length(key)) <= self.spec.travel / 2
+        return np.abs(readings[:, 0] - self.reach(key)) <= self.spec.travel / 2
 
     def reading_columns(self, header: list[str]) -> tuple[dict[str, str], dict[str, str]]:
         return {"length": "length"}, {}
@@ -188,7 +188,7 @@ class BallBarModel(DeviceModel):
             pivot, sphere = pairs[pair[i]]
             key = (pivot, sphere, extension)
             centre = self.centre(key, values)
-            radius = self.mid_travel_length(key) + spread[i]
+            radius = self.reach(key) + spread[i]
             point = _on_sphere(centre, radius, latitude[i], longitude[i])
             axis = (centre - point) / radius + [0.0, 0.0, -1.0] + TILT * rng.normal(size=3)
             goals[i] = [*point, *(axis / np.linalg.norm(axis))]

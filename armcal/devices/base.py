@@ -116,6 +116,10 @@ class DeviceModel(ABC):
         """The fixed point a key's readings are taken from (a ball-bar's pivot), at parameter ``values``; None if none."""
         return None
 
+    def reach(self, key: Key) -> float | None:
+        """The distance from its centre at which a key reads best (a ball-bar's mid-travel length); None if no centre."""
+        return None
+
     # Its simulation
     def true_parameters(self, pd: np.ndarray) -> np.ndarray:
         """A simulated instrument's true parameters from drawn ones (e.g. a scale bar true to its certificate)."""

@@ -33,8 +33,6 @@ from dataclasses import dataclass, field
 from armcal.kinematics.masses import LumpedMass
 from armcal.kinematics.params import ParameterInfo
 
-JOINT_SIDE = ("encoder_scale", "gear_harmonic", "joint_compliance", "joint_coupling", "joint_bending", "backlash")
-DEVICE_SIDE = ("sensor_scale", "range_bias", "ballbar_length", "pivot_offset")
 MOMENT_TERM = re.compile(r"^m([xyz])([1-9][0-9]*)$")  # a mass-moment product: axis of frame F_k, link k
 AXIS_WEIGHT = "w"  # a prismatic joint's mass-moment product: deflection along the axis under the weight beyond it
 

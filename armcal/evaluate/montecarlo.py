@@ -66,7 +66,7 @@ class RobotStudy:
         mode = "points" if spec.fit.method == "s_model_features" else spec.fit.sonic_readings
         self.fit_device = device_model(spec, mode)
         free = {e.name for e in self.fit_device.parameters.entries if e.free}
-        teach = any(name.startswith("robot_base.") for name in free)
+        teach = spec.device.base_frame_free(free)
         solved = grid_control(kinematics, kinematics.parameters.nominal, measured_point(spec), teach)
         if solved is None:
             raise UserError(f"{GRID_UNREACHABLE}; a Monte-Carlo study needs it")

@@ -148,10 +148,12 @@ def _distances(problem, validation, start: np.ndarray, theta: np.ndarray) -> dic
 
 
 def _design_point(identified, start: np.ndarray, problem) -> str:
-    """Where the base set was decided: the features' model, the registered start or the nominal."""
+    """Where the base set was decided: the features' model, the registered start or the nominal (a contact
+    instrument's at the data's poses moved into the nominal model's contacts)."""
     if identified.features is not None:
         return "Stone's feature identification"
-    return "nominal, instrument registered" if not np.array_equal(start, problem.parameters.nominal) else "nominal"
+    point = "nominal, instrument registered" if not np.array_equal(start, problem.parameters.nominal) else "nominal"
+    return point + (", poses moved into contact" if problem.design is not None else "")
 
 
 def _changed(problem, theta: np.ndarray) -> set[str]:

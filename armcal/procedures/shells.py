@@ -56,8 +56,8 @@ def plan_shells(procedure: Shells, kinematics: KinematicModel, device: DeviceMod
     plans = []
     for pairing in procedure.pairings:
         key = (pairing.pivot, pairing.sphere, procedure.extension)
-        centre = np.array([values[f"pivot.{pairing.pivot}.{c}"] for c in "xyz"])
-        radius = procedure.radius or device.mid_travel_length(key)
+        centre = device.centre(key, values)
+        radius = procedure.radius or device.reach(key)
         points = shell_points(centre, radius, procedure.latitudes, procedure.longitudes)
         inward = (centre - points) / radius
         axis = inward + [0.0, 0.0, -1.0]

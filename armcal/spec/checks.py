@@ -109,7 +109,9 @@ def _report(spec: Spec) -> Iterator[Problem]:
     if acceptance is None:
         return
     if spec.device.reading_kind != "length":
-        yield ("acceptance",), f"a {spec.device.type}'s residuals are {spec.device.reading_kind}s; acceptance takes a length tolerance"
+        lengths = [name for name, model in INSTRUMENTS.items() if model.section.reading_kind == "length"]
+        yield ("acceptance",), (f"a {spec.device.type}'s residuals are {spec.device.reading_kind}s; acceptance takes a length tolerance "
+                                f"({', '.join(lengths)})")
     if acceptance.statistic.endswith("_3d") and not spec.device.reads_positions:
         yield ("acceptance", "statistic"), f"{acceptance.statistic} needs measured points (a {_positions()}); use validation_rms or validation_max"
     if spec.data is not None and spec.data.validation is None:

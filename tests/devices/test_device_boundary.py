@@ -2,8 +2,10 @@
 
 A module outside devices/ names an instrument when it holds a registered device type as a
 string ("tracker" compared with device.type, a dict keyed by it), imports an instrument's
-module, or names an instrument's model or spec-section class. The scanner is tested on
-sources that do each of these, so a pass means the package has none, not that it looks for none.
+module, names an instrument's model or spec-section class, or calls a model method only one
+instrument defines (duck typing on one instrument). The scanner is tested on sources that do
+each of these, so a pass means the package has none of these namings (not that no module
+could know an instrument another way: a type inside a longer text is not looked for).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import ast
 import pytest
 from conftest import ROOT
 
+from armcal.devices.base import DeviceModel
 from armcal.devices.registry import INSTRUMENTS
 
 PACKAGE = ROOT / "armcal"
@@ -29,9 +32,19 @@ def _class_names() -> set[str]:
     return {model.__name__ for model in INSTRUMENTS.values()} | {model.section.__name__ for model in INSTRUMENTS.values()}
 
 
+def _one_instrument_methods() -> set[str]:
+    """Methods of one registered model only (not of DeviceModel): calling one is duck typing on that instrument."""
+    defined: dict[str, int] = {}
+    for model in INSTRUMENTS.values():
+        for name, value in vars(model).items():
+            if callable(value) and not hasattr(DeviceModel, name):
+                defined[name] = defined.get(name, 0) + 1
+    return {name for name, count in defined.items() if count == 1}
+
+
 def namings(source: str) -> list[tuple[int, str]]:
     """(line, what) of every place ``source`` names an instrument."""
-    types, modules, classes = set(INSTRUMENTS), _instrument_modules(), _class_names()
+    types, modules, classes, methods = set(INSTRUMENTS), _instrument_modules(), _class_names(), _one_instrument_methods()
     found = []
     for node in ast.walk(ast.parse(source)):
         if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in types:
@@ -46,6 +59,8 @@ def namings(source: str) -> list[tuple[int, str]]:
             found.append((node.lineno, f"the class {node.id}"))
         elif isinstance(node, ast.Attribute) and node.attr in classes:
             found.append((node.lineno, f"the class {node.attr}"))
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in methods:
+            found.append((node.lineno, f"a call of {node.func.attr}, which one instrument's model alone defines"))
     return found
 
 
@@ -66,6 +81,7 @@ def test_no_module_outside_devices_names_an_instrument():
     "import armcal.devices.tracker\n",
     "ok = isinstance(device, TheodoliteModel)\n",
     "ok = isinstance(spec.device, devices.BallBar)\n",
+    f"sigma = device.{min(_one_instrument_methods())}(readings)\n",
 ])
 def test_the_scanner_finds_each_way_of_naming_an_instrument(source):
     assert namings(source), source

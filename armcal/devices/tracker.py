@@ -133,13 +133,13 @@ class TrackerModel(DeviceModel):
         return [] if "tracker.scale" in free else [EffectSpec("sensor_scale")]
 
     def registered(self, theta: np.ndarray, names: tuple[str, ...], free: set[str], kinematics, data) -> np.ndarray | None:
-        """A free tracker-to-base transform registered from the data: the rigid registration (Kabsch) of the nominal
-        model's target positions onto the measured ones; components the spec holds keep their values."""
+        """A free tracker-to-base transform registered from the data: the rigid registration (Kabsch) of the target
+        positions the robot part of ``theta`` predicts onto the measured ones; components not ``free`` keep their values."""
         if not any(f"robot_base.{f}" in free for f in POSE_FIELDS):
             return None
         nominal, measured = [], []
         for key, rows in data.groups().items():
-            nominal.append(kinematics.target_poses(key[0], data.q[rows])[:, :3, 3])
+            nominal.append(kinematics.target_poses(key[0], data.q[rows], theta[: len(kinematics.parameters)])[:, :3, 3])
             measured.append(np.stack([data.readings[c][rows] for c in "xyz"], axis=1))
         registered = theta.copy()
         for field, value in zip(POSE_FIELDS, pose_from_matrix(rigid_registration(np.concatenate(nominal), np.concatenate(measured)))):

@@ -14,35 +14,31 @@ from dataclasses import dataclass
 import numpy as np
 
 from armcal.dataio.measurements import Measurements
+from armcal.devices.base import DeviceModel
 from armcal.identify.problem import Problem
 from armcal.kinematics.compiler import KinematicModel
-from armcal.kinematics.transforms import POSE_FIELDS, pose_from_matrix, rigid_registration
+from armcal.kinematics.transforms import POSE_FIELDS
 
 
 @dataclass(frozen=True)
 class MovedInstrument(Problem):
     kinematics: KinematicModel | None = None
+    device: DeviceModel | None = None
     data: Measurements | None = None
 
     def evaluate(self, theta: np.ndarray, columns: np.ndarray | None = None, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         return Problem.evaluate(self, self.registered(theta), columns, out)
 
     def registered(self, theta: np.ndarray) -> np.ndarray:
-        """theta with the instrument-to-base transform fitted to these data."""
-        names = self.parameters.names
-        columns = [names.index(f"robot_base.{f}") for f in POSE_FIELDS]
-        theta = np.array(theta, dtype=float)
-        p = theta[: self.n_robot]
-        predicted, measured = [], []
-        for key, rows in self.data.groups().items():
-            predicted.append(self.kinematics.target_poses(key[0], self.data.q[rows], p)[:, :3, 3])
-            measured.append(np.stack([self.data.readings[c][rows] for c in "xyz"], axis=1))
-        theta[columns] = pose_from_matrix(rigid_registration(np.concatenate(predicted), np.concatenate(measured)))
-        return theta
+        """theta with the instrument-to-base transform registered to these data (the instrument's registration,
+        every component of it)."""
+        every = {f"robot_base.{f}" for f in POSE_FIELDS}
+        return self.device.registered(np.array(theta, dtype=float), self.parameters.names, every, self.kinematics, self.data)
 
 
-def held_out(problem: Problem, kinematics: KinematicModel, data: Measurements, instrument_moved: bool) -> Problem:
+def held_out(problem: Problem, kinematics: KinematicModel, device: DeviceModel, data: Measurements, instrument_moved: bool) -> Problem:
     """The validation problem, re-registering the instrument when it was moved."""
     if not instrument_moved:
         return problem
-    return MovedInstrument(problem.parameters, problem.n_robot, problem.blocks, problem.residuals, problem.design, kinematics=kinematics, data=data)
+    return MovedInstrument(problem.parameters, problem.n_robot, problem.blocks, problem.residuals, problem.design,
+                           kinematics=kinematics, device=device, data=data)

@@ -6,7 +6,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from armcal.dataio.reader import data_text, read_measurements
+from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model, readings_mode
 from armcal.errors import Issue, SpecError, UserError
 from armcal.diagnose.calibration import identify_and_diagnose
@@ -67,9 +67,9 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     folder = loaded.path.parent
     calibration_path = folder / spec.data.calibration
     kinematics = compile_robot(spec.robot)
-    device = fitted_device(spec, calibration_path)
     with stage("reading the data"):
         raw = read_measurements(calibration_path, spec)
+        device = fitted_device(spec, raw)
         calibration = device.prepare(raw)
         validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
         for data in filter(None, (calibration, validation)):
@@ -114,8 +114,7 @@ def check_readable(device, data) -> None:
         raise SpecError([Issue(data.source, line, None, column, message) for line, column, message in problems[:20]])
 
 
-def fitted_device(spec, calibration_path: Path):
-    """The spec's instrument as it fits the calibration file's readings (a sonic digitizer's triangulated points
-    when that is all the file has, else as the spec says)."""
-    header = [h.strip() for h in data_text(calibration_path).split("\n", 1)[0].split(",")]
-    return device_model(spec, readings_mode(spec, header, spec.fit.sonic_readings))
+def fitted_device(spec, raw):
+    """The spec's instrument as it fits the calibration data's readings ``raw`` (a sonic digitizer's triangulated
+    points when that is all the file has, else as the spec says)."""
+    return device_model(spec, readings_mode(spec, list(raw.readings), spec.fit.sonic_readings))

@@ -16,8 +16,8 @@ def _stages(spec_path):
     spec = load_spec(spec_path).spec
     folder = spec_path.parent
     kinematics = compile_robot(spec.robot)
-    device = fitted_device(spec, folder / spec.data.calibration)
     raw = read_measurements(folder / spec.data.calibration, spec)
+    device = fitted_device(spec, raw)
     validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
     return spec, kinematics, device, raw, validation
 

@@ -53,9 +53,9 @@ def compiles(log) -> int:
 def problem_of(spec_path):
     """The calibration problem `armcal run` fits first, and its start."""
     spec = load_spec(spec_path).spec
-    calibration = spec_path.parent / spec.data.calibration
-    kinematics, device = compile_robot(spec.robot), fitted_device(spec, calibration)
-    return calibration_problem(spec, kinematics, device, device.prepare(read_measurements(calibration, spec)))
+    raw = read_measurements(spec_path.parent / spec.data.calibration, spec)
+    kinematics, device = compile_robot(spec.robot), fitted_device(spec, raw)
+    return calibration_problem(spec, kinematics, device, device.prepare(raw))
 
 
 def functions_of(spec_path):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from armcal.devices import device_model
+from armcal.devices import DeviceModel
 from armcal.spec.document import Spec
 from armcal.spec.robot import joint_kind
 
@@ -29,18 +29,16 @@ class Layout:
         return {**self.required, **self.optional}
 
 
-def _common(spec: Spec) -> tuple[dict[str, str], dict[str, str]]:
-    n = spec.robot.dof
-    joints = {f"q{i + 1}": joint_kind(j.type) for i, j in enumerate(spec.robot.joints)}
-    optional = {"sample": "text", "t": "time", "temperature": "temperature"}
-    optional.update({f"dir{i}": "direction" for i in range(1, n + 1)})
-    return joints, optional
+def joint_columns(spec: Spec) -> dict[str, str]:
+    """q1..qN -> angle (revolute) or length (prismatic)."""
+    return {f"q{i + 1}": joint_kind(j.type) for i, j in enumerate(spec.robot.joints)}
 
 
-def layout(spec: Spec, header: list[str]) -> Layout:
-    """The layout of a data file with this header (an instrument that offers a choice of readings tells it from it)."""
-    joints, optional = _common(spec)
-    device = device_model(spec)
+def layout(spec: Spec, header: list[str], device: DeviceModel) -> Layout:
+    """The layout of a data file with this header, for the spec's instrument ``device`` (an instrument that offers a
+    choice of readings tells it from the header)."""
+    joints = joint_columns(spec)
+    optional = {"sample": "text", "t": "time", "temperature": "temperature", **{f"dir{i}": "direction" for i in range(1, spec.robot.dof + 1)}}
     keys = {c: "text" for c in device.key_columns}
     readings, extra = device.reading_columns(header)
     optional_keys = {c: "text" for c in device.optional_key_columns}

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armcal.dataio.columns import Layout, layout
+from armcal.dataio.columns import Layout, joint_columns, layout
 from armcal.dataio.measurements import Measurements
 from armcal.devices import device_model
 from armcal.errors import Issue, SpecError
@@ -100,10 +100,9 @@ def _valid_names(spec: Spec, device) -> dict[str, set[str]]:
     return {"target": set(spec.robot.targets), **device.key_names(spec.robot)}
 
 
-def _parse(path: Path, spec: Spec, cols: Layout, header: list[str], rows: list[list[str]], problems: _Problems):
+def _parse(path: Path, spec: Spec, device, cols: Layout, header: list[str], rows: list[list[str]], problems: _Problems):
     """Numeric columns (internal units, NaN if empty) and text columns of every row, checked."""
     index = {name: i for i, name in enumerate(header)}
-    device = device_model(spec)
     names = _valid_names(spec, device)
     links = device.target_aliases(spec.robot)
     values = {c: np.full(len(rows), np.nan) for c, k in cols.known.items() if k != "text" and c in index}
@@ -153,20 +152,21 @@ def _check_limits(spec: Spec, values: dict, index: dict, r: int, problems: _Prob
             problems.add(r + 2, index[f"q{i}"] + 1, f"q{i}", f"{shown:g} {unit} lies outside joint {i}'s limits")
 
 
-def _rows(path: Path, spec: Spec, make_layout) -> tuple[Layout, dict, dict, int]:
+def _rows(path: Path, spec: Spec, device, make_layout) -> tuple[Layout, dict, dict, int]:
     problems = _Problems(path)
     header, rows = _table(path)
     cols = _header(header, make_layout(header), problems)
     if not rows:
         raise SpecError([Issue(path, 2, None, "", "the file has a header but no data rows")])
-    values, text = _parse(path, spec, cols, header, rows, problems)
+    values, text = _parse(path, spec, device, cols, header, rows, problems)
     return cols, values, text, len(rows)
 
 
 def read_measurements(path: Path, spec: Spec) -> Measurements:
     """Measurements of a data file, in internal units; SpecError lists the problems found."""
     path = Path(path)
-    cols, values, text, count = _rows(path, spec, lambda header: layout(spec, header))
+    device = device_model(spec)
+    cols, values, text, count = _rows(path, spec, device, lambda header: layout(spec, header, device))
     n = spec.robot.dof
     extras = {c: values[c] for c in values if c in ("t", "temperature") or c.startswith("rod_")}
     readings = {c: values[c] for c in values if c not in extras and not c.startswith(("q", "dir"))}
@@ -196,12 +196,12 @@ def read_pose_file(path: Path, spec: Spec) -> tuple[np.ndarray, tuple | None]:
     Other instruments read every pose on each of their keys: their keys are None.
     """
     device = device_model(spec)
-    joints = {f"q{i}": ("angle" if j.type == "revolute" else "length") for i, j in enumerate(spec.robot.joints, start=1)}
+    joints = joint_columns(spec)
     keyed = device.keyed_poses
     keys = {c: "text" for c in device.key_columns} if keyed else {}
     optional = {"sample": "text", **({c: "text" for c in device.optional_key_columns} if keyed else {})}
     columns = Layout(device.key_columns if keyed else (), {**joints, **keys}, optional, device.optional_key_columns if keyed else ())
-    cols, values, text, count = _rows(Path(path), spec, lambda header: columns)
+    cols, values, text, count = _rows(Path(path), spec, device, lambda header: columns)
     return np.stack([values[c] for c in joints], axis=1), _keys(cols, text, count) if keyed else None
 
 

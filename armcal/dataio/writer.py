@@ -9,6 +9,7 @@ import numpy as np
 
 from armcal.dataio.columns import layout
 from armcal.dataio.measurements import Measurements
+from armcal.devices import device_model
 from armcal.fileio import write_text_atomic
 from armcal.spec.document import Spec
 from armcal.units import factor
@@ -27,7 +28,7 @@ def _format(value: float, kind: str, spec: Spec) -> str:
 def measurements_csv(measurements: Measurements, spec: Spec) -> str:
     """The CSV text: sample, key columns, q1..qN, readings, then the optional columns present."""
     channels = list(measurements.readings)
-    cols = layout(spec, channels)
+    cols = layout(spec, channels, device_model(spec))
     n = spec.robot.dof
     extra = [c for c in measurements.extras if c != "dir"]
     width = len(cols.key_columns)

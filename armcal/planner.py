@@ -19,7 +19,7 @@ import numpy as np
 
 from armcal import __version__
 from armcal.dataio.reader import read_pose_file
-from armcal.devices.registry import INSTRUMENTS
+from armcal.devices.registry import INSTRUMENTS, instruments_where
 from armcal.errors import UserError, either, with_article
 from armcal.evaluate.montecarlo import robot_seeds
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_label
@@ -81,7 +81,7 @@ def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | No
     loaded = load_spec(spec_path)
     spec = loaded.spec
     if "poses" not in spec.device.procedures:
-        takers = [name for name, model in INSTRUMENTS.items() if "poses" in model.section.procedures]
+        takers = instruments_where(lambda section: "poses" in section.procedures)
         raise UserError(f"{spec_path}: armcal plan chooses poses for {with_article(either(takers))}, not a {spec.device.type}")
     model = INSTRUMENTS[spec.device.type]
     keyed = model.keyed_poses

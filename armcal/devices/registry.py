@@ -18,6 +18,11 @@ from armcal.devices.tracker import TrackerModel
 INSTRUMENTS: dict[str, type[DeviceModel]] = {model.type: model for model in (SonicModel, BallBarModel, TheodoliteModel, TrackerModel, SphereSocketModel, PlaneContactModel)}
 
 
+def instruments_where(test) -> list[str]:
+    """The registered device types whose spec section passes ``test`` (e.g. takes a procedure), in registry order."""
+    return [name for name, model in INSTRUMENTS.items() if test(model.section)]
+
+
 def accepting(effect_type: str) -> list[str]:
     """The instruments an instrument-side effect acts on (none: an effect on the robot's side)."""
-    return [name for name, model in INSTRUMENTS.items() if effect_type in model.section.instrument_effects]
+    return instruments_where(lambda section: effect_type in section.instrument_effects)

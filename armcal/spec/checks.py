@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
-from armcal.devices.registry import INSTRUMENTS, accepting
+from armcal.devices.registry import accepting, instruments_where
 from armcal.errors import either, with_article
 from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
@@ -72,7 +72,7 @@ def _procedures(spec: Spec) -> Iterator[Problem]:
         if procedure is None:
             continue
         if procedure.type not in device.procedures:
-            takers = [name for name, model in INSTRUMENTS.items() if procedure.type in model.section.procedures]
+            takers = instruments_where(lambda section: procedure.type in section.procedures)
             yield (key, "type"), f"a {procedure.type} procedure needs {with_article(either(takers))} device, not {device.type}"
             continue
         if isinstance(procedure, CirclePoint):
@@ -109,7 +109,7 @@ def _report(spec: Spec) -> Iterator[Problem]:
     if acceptance is None:
         return
     if spec.device.reading_kind != "length":
-        lengths = [name for name, model in INSTRUMENTS.items() if model.section.reading_kind == "length"]
+        lengths = instruments_where(lambda section: section.reading_kind == "length")
         yield ("acceptance",), (f"a {spec.device.type}'s residuals are {spec.device.reading_kind}s; acceptance takes a length tolerance "
                                 f"({', '.join(lengths)})")
     if acceptance.statistic.endswith("_3d") and not spec.device.reads_positions:
@@ -157,7 +157,7 @@ def _effects(spec: Spec) -> Iterator[Problem]:
 
 def _positions() -> str:
     """The instruments whose readings are measured positions."""
-    return either([name for name, model in INSTRUMENTS.items() if model.section.reads_positions])
+    return either(instruments_where(lambda section: section.reads_positions))
 
 
 

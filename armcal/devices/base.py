@@ -75,8 +75,9 @@ class DeviceModel(ABC):
         """Required and optional reading columns -> kind (length, angle) of a data file with this header."""
 
     def key_names(self, robot) -> dict[str, set[str]]:
-        """The names each key column accepts (the empty string: an optional column left empty)."""
-        return {"target": set(getattr(self.spec, "targets", robot.targets))}
+        """The names each key column accepts (the empty string: an optional column left empty): by default the targets
+        it measures, or any robot target when its section names none (a sonic digitizer's sparkers)."""
+        return {"target": set(self.spec.seen_targets() or robot.targets)}
 
     def target_aliases(self, robot) -> dict[str, str]:
         """Other names data files may give a target (e.g. the link that carries it) -> its name."""
@@ -86,7 +87,7 @@ class DeviceModel(ABC):
 
     def pose_keys(self) -> list[Key]:
         """The keys read at every pose of a pose list."""
-        return [(target,) for target in self.spec.targets]
+        return [(target,) for target in self.spec.seen_targets()]
 
     def random_keyed_poses(self, spec, kinematics, count: int, rng: np.random.Generator) -> tuple[np.ndarray, list[Key], dict[str, int]]:
         """For an instrument that reads each pose on one key (keyed_poses): ``count`` random poses where the nominal

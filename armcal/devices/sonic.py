@@ -392,9 +392,6 @@ class SonicModel(DeviceModel):
         rods = {f"rod_{rod.microphone}_{i}": "length" for rod in self.spec.calibration_rods for i in (1, 2)}
         return ranges, {**extra, **rods}
 
-    def key_names(self, robot) -> dict[str, set[str]]:
-        return {"target": set(robot.targets)}
-
     def target_aliases(self, robot) -> dict[str, str]:
         """A sparker named by the link that carries it (the contract's target 1..N), where it is the link's only one."""
         on_link: dict[int, list[str]] = {}

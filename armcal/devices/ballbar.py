@@ -19,6 +19,7 @@ from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.effects.library import EffectSpec
 from armcal.kinematics import ik
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
+from armcal.kinematics.transforms import on_sphere
 from armcal.spec.base import Length, LengthParam
 from armcal.spec.starter import mm
 from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
@@ -189,7 +190,7 @@ class BallBarModel(DeviceModel):
             key = (pivot, sphere, extension)
             centre = self.centre(key, values)
             radius = self.reach(key) + spread[i]
-            point = _on_sphere(centre, radius, latitude[i], longitude[i])
+            point = on_sphere(centre, radius, latitude[i], longitude[i])
             axis = (centre - point) / radius + [0.0, 0.0, -1.0] + TILT * rng.normal(size=3)
             goals[i] = [*point, *(axis / np.linalg.norm(axis))]
             keys.append(key)
@@ -209,7 +210,3 @@ def _pairings(spec) -> tuple[list[tuple[str, str]], str | None, tuple[float, flo
     pairs = [(p.pivot, p.sphere) for p in shells.pairings]
     return pairs, shells.extension, (min(shells.latitudes), max(shells.latitudes))
 
-
-def _on_sphere(centre: np.ndarray, radius: float, latitude: float, longitude: float) -> np.ndarray:
-    """The point at ``latitude``, ``longitude`` (rad) on the sphere of ``radius`` about ``centre``."""
-    return centre + radius * np.array([np.cos(latitude) * np.cos(longitude), np.cos(latitude) * np.sin(longitude), np.sin(latitude)])

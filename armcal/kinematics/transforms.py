@@ -105,3 +105,11 @@ def rigid_registration(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     T = np.eye(4)
     T[:3, :3], T[:3, 3] = R, b - R @ a
     return T
+
+
+def on_sphere(centre: np.ndarray, radius: float, latitude, longitude) -> np.ndarray:
+    """The point(s) at ``latitude``, ``longitude`` (rad, scalars or (M,) arrays) on the sphere of ``radius`` about
+    ``centre``: (3,) or (M, 3)."""
+    latitude, longitude = np.asarray(latitude, dtype=float), np.asarray(longitude, dtype=float)
+    direction = np.stack([np.cos(latitude) * np.cos(longitude), np.cos(latitude) * np.sin(longitude), np.sin(latitude)], axis=-1)
+    return centre + radius * direction

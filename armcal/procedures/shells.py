@@ -18,6 +18,7 @@ import numpy as np
 from armcal.devices.base import DeviceModel
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel
+from armcal.kinematics.transforms import on_sphere
 from armcal.procedures.plan import Plan
 from armcal.spec.procedure import Shells
 from armcal.units import from_internal
@@ -38,8 +39,7 @@ def shell_points(centre: np.ndarray, radius: float, latitudes: list[float], long
     """Points (M, 3) on the hemisphere above ``centre``: each latitude ring, ``longitudes`` points per ring."""
     lat = np.repeat(np.asarray(latitudes, dtype=float), longitudes)
     lon = np.tile(2 * np.pi * np.arange(longitudes) / longitudes, len(latitudes))
-    ring = np.stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)], axis=1)
-    return centre + radius * ring
+    return on_sphere(centre, radius, lat, lon)
 
 
 def reach(kinematics: KinematicModel, sphere: str, seed: int = 0) -> tuple[np.ndarray, float]:

@@ -267,18 +267,18 @@ CONTACT_STEP = 1e-6  # rad (or mm): the central-difference step of the contact's
 
 def held_in_contact(read, Q: np.ndarray, offset: np.ndarray, limits: np.ndarray, iterations: int = 30) -> tuple[np.ndarray, np.ndarray]:
     """The joint values nearest ``Q`` (N, n) at which a robot holds its contact (a ball in its socket) up to ``offset``
-    (N, channels: a simulated seating's noise): ``read(Q)[1]``, the contact's readings, equal the offset. Gauss-Newton
+    (N, channels: a simulated seating's noise): ``read(Q)``, the contact's readings (N, channels), equal the offset. Gauss-Newton
     steps of minimum norm in joint space (the robot is moved no further than the contact needs); and which solved
     within the joint limits."""
     Q = np.array(Q, dtype=float)
     step = CONTACT_STEP * np.eye(Q.shape[1])
     for _ in range(iterations):
-        r = read(Q)[1] - offset
+        r = read(Q) - offset
         if np.max(np.abs(r), initial=0.0) < CONTACT_TOLERANCE:
             break
-        J = np.stack([(read(Q + h)[1] - read(Q - h)[1]) / (2 * CONTACT_STEP) for h in step], axis=2)  # (N, c, n)
+        J = np.stack([(read(Q + h) - read(Q - h)) / (2 * CONTACT_STEP) for h in step], axis=2)  # (N, c, n)
         Q = Q - np.einsum("nij,nj->ni", np.linalg.pinv(J), r)
-    held = np.all(np.abs(read(Q)[1] - offset) < 1e3 * CONTACT_TOLERANCE, axis=1)
+    held = np.all(np.abs(read(Q) - offset) < 1e3 * CONTACT_TOLERANCE, axis=1)
     return Q, held & np.all((Q >= limits[:, 0]) & (Q <= limits[:, 1]), axis=1)
 
 

@@ -141,7 +141,7 @@ def _measure(settings, robot: TrueRobot, device: DeviceModel, pd, planned: Plan,
         if device.contact and target is not None:
             sigma = device.sigma(key, np.zeros_like(values)) * settings.noise_factor
             offset = rng.normal(size=values.shape) * sigma if settings.noise else np.zeros_like(values)
-            q[rows], held = held_in_contact(true_readings, planned.q[rows], offset, robot.kinematics.limits)
+            q[rows], held = held_in_contact(lambda Q: true_readings(Q)[1], planned.q[rows], offset, robot.kinematics.limits)
             keep[rows] &= held
         else:
             values, readable, recorded = device.simulated_readings(key, values, poses, pd, settings, rng)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from armcal import __version__
+from armcal.dataio.columns import joint_columns
 from armcal.dataio.reader import read_pose_file
 from armcal.devices.registry import INSTRUMENTS, instruments_where
 from armcal.errors import UserError, either, with_article
@@ -157,7 +158,7 @@ def _monte_carlo(study: PlanStudy, rows: np.ndarray, poses: int, runs: int, prog
 
 def _csv(spec, existing: tuple[np.ndarray, tuple | None], candidates: ps.Candidates, rows: np.ndarray) -> str:
     """q1..qN in the spec's units (and a ball-bar's pivot, sphere, extension): the existing poses, then the new."""
-    kinds = ["angle" if j.type == "revolute" else "length" for j in spec.robot.joints]
+    kinds = list(joint_columns(spec).values())
     model = INSTRUMENTS[spec.device.type]
     key_columns = model.key_columns + model.optional_key_columns if model.keyed_poses else ()
     header = [f"q{i}" for i in range(1, spec.robot.dof + 1)] + list(key_columns)

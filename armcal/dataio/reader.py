@@ -17,6 +17,7 @@ from armcal.devices import device_model
 from armcal.errors import Issue, SpecError
 from armcal.fileio import read_input
 from armcal.spec.document import Spec
+from armcal.spec.robot import joint_kind
 from armcal.units import factor
 
 MAX_ISSUES = 20
@@ -146,7 +147,7 @@ def _check_limits(spec: Spec, values: dict, index: dict, r: int, problems: _Prob
         value = values[f"q{i}"][r]
         low, high = joint.limits
         if not np.isnan(value) and not low <= value <= high:
-            kind = "angle" if joint.type == "revolute" else "length"
+            kind = joint_kind(joint.type)
             unit = getattr(spec.robot.units, kind)
             shown = value / factor(kind, unit)
             problems.add(r + 2, index[f"q{i}"] + 1, f"q{i}", f"{shown:g} {unit} lies outside joint {i}'s limits")

@@ -26,12 +26,11 @@ O1 = (s_1 ... s_m)^(1/m) / sqrt(M) (Borm & Menq), directions no parameter can
 carry, such as the overall scale of a network, and, at the solution, the
 condition number and the flat directions of the scaled base Jacobian.
 
-The base choice is made on J itself, group by group: one copy of a group's columns,
-scaled and factorised in place. Every other quantity depends on the Jacobian only
-through its columns' inner products (norms, projections, singular values), so a tall
-Jacobian is first reduced to the triangular factor R of its QR decomposition
-(J^T J = R^T R), taken in row blocks: the rest costs O(p^3) whatever the number of
-readings, and no copy of J is made.
+Everything here depends on the Jacobian only through its columns' inner products
+(norms, projections, the pivots' new parts, singular values), so a tall Jacobian is
+first reduced to the triangular factor R of its QR decomposition (J^T J = R^T R),
+taken in row blocks: the rest, the base choice included, costs O(p^3) whatever the
+number of readings, and no copy of J is made.
 """
 
 from __future__ import annotations
@@ -67,31 +66,22 @@ def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identi
     names = parameters.names
     roles = np.array([e.role for e in parameters.entries])
     fixed = [(n, held_reason(e)) for n, f, e in zip(names, free, parameters.entries) if not f]
+    readings, J = len(J), triangular(J)
     columns = np.flatnonzero(free & (roles != "effect"))
-    norms = np.array([np.sqrt(np.add.reduce(J[:, c] * J[:, c])) for c in columns])  # column by column: no copy of J
+    norms = np.linalg.norm(J[:, columns], axis=0)
     scale = np.max(norms) if len(norms) else 1.0
     silent = norms <= 1e-12 * scale
     fixed += [(names[c], "does not affect the measurements") for c in columns[silent]]
     columns, norms = columns[~silent], norms[~silent]
+    scaled = J[:, columns] / norms
     groups = [g for g in (np.flatnonzero(roles[columns] == role) for role in PRIORITY) if len(g)]
     basis, chosen, dependent = np.zeros((len(J), 0)), [], []
-    for k, group in enumerate(groups):
-        scaled = J[:, columns[group]]  # the group's one copy of J: scaled here, factorised in place (Q overwrites it)
-        scaled /= norms[group]
-        if basis.shape[1]:
-            scaled = _off(basis, scaled)
-        Q, R, pivots = scipy.linalg.qr(scaled, overwrite_a=True, mode="economic", pivoting=True)
+    for group in groups:  # each projected off the columns of the groups before it
+        Q, R, pivots = scipy.linalg.qr(_off(basis, scaled[:, group]), mode="economic", pivoting=True)
         rank = int(np.sum(np.abs(np.diag(R)) > RANK_TOLERANCE))  # unit columns: |R_kk| is the new part's norm
         chosen += list(group[pivots[:rank]])
         dependent += list(group[pivots[rank:]])
-        if k + 1 < len(groups):  # the next groups are projected off it
-            basis = np.column_stack([basis, Q[:, :rank]])
-        del scaled, Q
-    del basis
-    # the choice above is made on J itself (a tie between equal columns is broken by rounding, as it always was);
-    # what follows needs only inner products of the columns: R
-    readings, J = len(J), triangular(J)
-    scaled = J[:, columns] / norms
+        basis = np.column_stack([basis, Q[:, :rank]])
     base = columns[chosen]
     base_names = [names[c] for c in base]
     fixed += [(names[columns[k]], _redundancy(scaled[:, chosen], base_names, scaled[:, k])) for k in dependent]

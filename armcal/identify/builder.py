@@ -17,8 +17,10 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import functools
 import hashlib
 import os
+import platform
 import shutil
 import signal
 import subprocess
@@ -27,14 +29,28 @@ import tempfile
 import time
 from pathlib import Path
 
-FLAGS = ("-shared", "-fPIC", "-O1")
+FLAGS = ("-shared", "-fPIC", "-O3", "-march=native")  # this processor's instructions (fused multiply-add): ~30 % faster
+PORTABLE = ("-shared", "-fPIC", "-O3")  # for a compiler that does not know -march=native
 SOURCE = "functions.c"  # the C file inside a build folder
 STALE = 24 * 3600.0  # s: a build folder this old belongs to a builder that was killed
 
 
 def key(source: str, compiler: str) -> str:
-    """The cache key of a library: what its machine code depends on (the C source, the compiler and its flags)."""
-    return hashlib.sha256(f"{source}\0{compiler} {' '.join(FLAGS)}".encode()).hexdigest()[:32]
+    """The cache key of a library: what its machine code depends on (the C source, the compiler, its flags and,
+    for -march=native, the processor: a cache shared by machines of different processors keeps one library each)."""
+    return hashlib.sha256(f"{source}\0{compiler} {' '.join(FLAGS)}\0{processor()}".encode()).hexdigest()[:32]
+
+
+@functools.cache
+def processor() -> str:
+    """What -march=native compiles for: the processor's model and instruction-set flags (Linux's /proc/cpuinfo),
+    else what the platform module knows."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        lines = []
+    described = [line for line in lines if line.split(":")[0].strip() in ("model name", "flags", "Features", "CPU part")]
+    return "\n".join(dict.fromkeys(described)) or f"{platform.machine()} {platform.processor()}"
 
 
 def exposure(path: Path) -> str | None:
@@ -86,7 +102,10 @@ def build(source: Path, library: Path, compiler: str) -> None:
     The caller holds the folder's lock."""
     with tempfile.TemporaryDirectory(dir=library.parent) as work:
         partial = Path(work) / library.name
-        subprocess.run([compiler, *FLAGS, str(source), "-o", str(partial)], check=True, capture_output=True)
+        try:
+            subprocess.run([compiler, *FLAGS, str(source), "-o", str(partial)], check=True, capture_output=True)
+        except subprocess.CalledProcessError:  # e.g. a compiler that does not know -march=native
+            subprocess.run([compiler, *PORTABLE, str(source), "-o", str(partial)], check=True, capture_output=True)
         os.chmod(partial, 0o700)
         record = Path(work) / hash_file(library).name
         record.write_text(sha256(partial) + "\n")

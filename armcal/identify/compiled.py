@@ -47,7 +47,7 @@ from armcal import __version__
 from armcal.identify import builder
 
 MODES = ("now", "background", "off")
-LONG = 100_000  # characters of C: more than a second of gcc -O1 (a ball-bar problem's functions: 0.5-1 MB, 3-6 s)
+LONG = 100_000  # characters of C: more than a second of gcc -O3 (a ball-bar problem's functions: 0.5-1 MB, 4-9 s)
 MESSAGE = "armcal: compiling the measurement functions for this robot and instrument{where} (once; later runs load them)"
 
 

@@ -15,7 +15,10 @@ nonzero singular values), group by group in PRIORITY order: the instrument's
 parameters, then the targets', then the robot's own, each group's columns first
 projected off those chosen before. A column whose new part (|R_kk|) is below
 RANK_TOLERANCE adds nothing new; every such free parameter is held at its start
-value with the base parameters it is redundant with. So where no reading can tell
+value with the base parameters it is redundant with. Columns whose new parts are
+equal (to TIE) are taken in the spec's order, so which of two redundant parameters
+is identified (a joint's offset or the next one's, along the same line) is decided
+by the spec and not by the last bits of the arithmetic (compiler, processor). So where no reading can tell
 two parameters apart, the instrument or the target carries the difference and the
 robot's parameter stays at its nominal: a reflector on the last axis takes the
 flange's offset along it, a free tracker pose the first joint's zero. Effect parameters are added after the geometry (``extend``):
@@ -45,6 +48,7 @@ from armcal.kinematics.params import ParameterSet
 RANK_TOLERANCE = 1e-7  # norm of a unit column's part the columns chosen before it leave, below which it adds nothing
 PRIORITY = ("device", "target", "chain")  # who carries a redundancy: the instrument and the targets before the robot
 FLAT_RATIO = 1e-3  # s_k / s_1 of the scaled base Jacobian below which a direction is reported as flat
+TIE = 1e-8  # relative difference of two columns' new parts below which the one first in the spec is taken
 ROWS = 4096  # rows of J per step of its blockwise QR (triangular)
 
 
@@ -77,11 +81,11 @@ def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identi
     groups = [g for g in (np.flatnonzero(roles[columns] == role) for role in PRIORITY) if len(g)]
     basis, chosen, dependent = np.zeros((len(J), 0)), [], []
     for group in groups:  # each projected off the columns of the groups before it
-        Q, R, pivots = scipy.linalg.qr(_off(basis, scaled[:, group]), mode="economic", pivoting=True)
-        rank = int(np.sum(np.abs(np.diag(R)) > RANK_TOLERANCE))  # unit columns: |R_kk| is the new part's norm
-        chosen += list(group[pivots[:rank]])
-        dependent += list(group[pivots[rank:]])
-        basis = np.column_stack([basis, Q[:, :rank]])
+        pivots, directions = _pivoted(_off(basis, scaled[:, group]))
+        taken = group[pivots]
+        chosen += list(taken)
+        dependent += [k for k in group if k not in taken]
+        basis = np.column_stack([basis, directions])
     base = columns[chosen]
     base_names = [names[c] for c in base]
     fixed += [(names[columns[k]], _redundancy(scaled[:, chosen], base_names, scaled[:, k])) for k in dependent]
@@ -101,6 +105,28 @@ def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identi
     )
     effects = [names[c] for c in np.flatnonzero(free & (roles == "effect"))]
     return extend(geometric, J, parameters, effects) if effects else geometric
+
+
+def _pivoted(columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """QR with column pivoting of unit ``columns``, ties taken in their order: the pivots whose new part exceeds
+    RANK_TOLERANCE, and the orthonormal directions they add (Golub & Van Loan's algorithm 5.4.1, norms recomputed)."""
+    rest = columns.copy()
+    pivots, directions = [], []
+    for _ in range(min(rest.shape)):
+        parts = np.linalg.norm(rest, axis=0)
+        parts[pivots] = 0.0
+        largest = parts.max(initial=0.0)
+        if largest <= RANK_TOLERANCE:
+            break
+        k = int(np.flatnonzero(parts >= largest * (1.0 - TIE))[0])
+        q = rest[:, k] / parts[k]
+        if directions:  # once more off the directions before it: Gram-Schmidt loses orthogonality once
+            q = _off(np.column_stack(directions), q[:, None])[:, 0]
+            q /= np.linalg.norm(q)
+        rest -= np.outer(q, q @ rest)
+        pivots.append(k)
+        directions.append(q)
+    return np.array(pivots, dtype=int), np.column_stack(directions) if directions else np.zeros((len(columns), 0))
 
 
 def triangular(J: np.ndarray) -> np.ndarray:

@@ -80,6 +80,39 @@ def test_a_redundancy_is_carried_by_the_instrument_then_the_target_not_the_robot
     assert dict(result.fixed) == {"j1.theta": "redundant with robot_base.rz", "j6.d": "redundant with tmac.z"}
 
 
+def test_of_two_redundant_robot_parameters_the_spec_s_first_is_identified_whatever_the_last_bits():
+    """Exactly redundant columns (a joint's offset along the line of the next one's) whose computed values differ in
+    their last bits, either way: the first in the spec's order is kept, as the rule says, not the rounding."""
+    rng = np.random.default_rng(2)
+    a, b, c = rng.normal(size=(3, 80))
+    parameters = _parameters({"L1.a": "chain", "L2.y": "chain", "L3.z": "chain", "L3.b": "chain"})
+    for _ in range(20):  # L1.a is taken first; then L2.y and L3.z are a tie that the noise breaks either way
+        J = np.column_stack([b + 0.5 * a, a, 3 * a * (1 + 1e-12 * rng.normal(size=80)), c])
+        result = analyse(J, parameters, parameters.free)
+        assert set(result.base) == {"L1.a", "L2.y", "L3.b"} and dict(result.fixed) == {"L3.z": "redundant with L2.y"}
+
+
+def test_the_pivots_are_greedy_by_new_part_ties_in_the_spec_s_order():
+    """Independent oracle: the rule computed by least squares, each step the unit column farthest from the span of
+    those taken (the first of equals), until none is farther than the rank tolerance."""
+    rng = np.random.default_rng(3)
+    names = [f"j{k}.p" for k in range(8)]
+    parameters = _parameters(dict.fromkeys(names, "chain"))
+    for _ in range(5):
+        J = rng.normal(size=(200, 8)) * rng.uniform(0.1, 10.0, size=8)
+        J[:, 5] = J[:, 1] - 2 * J[:, 6]  # one dependent column
+        unit, taken = J / np.linalg.norm(J, axis=0), []
+        while True:
+            span = unit[:, taken]
+            parts = np.array([np.linalg.norm(u - span @ np.linalg.lstsq(span, u, rcond=None)[0]) if taken else 1.0 for u in unit.T])
+            parts[taken] = 0.0
+            if parts.max() <= RANK_TOLERANCE:
+                break
+            taken.append(int(np.flatnonzero(parts >= parts.max() * (1 - 1e-8))[0]))
+        result = analyse(J, parameters, parameters.free)
+        assert result.base == tuple(names[k] for k in taken) and len(taken) == 7
+
+
 def test_an_effect_never_frees_a_geometric_parameter_and_is_held_where_the_geometry_absorbs_it():
     rng = np.random.default_rng(1)
     a, b, c = rng.normal(size=(3, 60))

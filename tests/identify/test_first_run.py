@@ -20,6 +20,7 @@ from conftest import ROOT, copy_example
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
 from armcal.diagnose.calibration import calibration_problem
+from armcal.identify import builder
 from armcal.identify import compiled as cache
 from armcal.identify.problem import _value_and_jacobian
 from armcal.effects.measurement import EffectSet
@@ -189,3 +190,31 @@ def _process_holding(argument: str) -> int:
                     return int(entry)
         time.sleep(0.01)
     raise AssertionError(f"no builder for {argument}")
+
+
+def test_a_library_for_this_processor_is_not_loaded_on_another(private, monkeypatch):
+    """-march=native code may not run on another processor: a cache shared by two machines keeps one library each."""
+    folder, log = private
+    monkeypatch.setenv("ARMCAL_COMPILE", "now")
+    functions = functions_of(ROOT / "examples" / "theodolite" / "spec.yaml")
+    cache.compiled(functions)
+    monkeypatch.setattr(builder, "processor", lambda: "another processor")
+    cache.compiled(functions)
+    assert compiles(log) == 2 and len(list(folder.glob("*.so"))) == 2
+
+
+def test_a_compiler_without_march_native_still_builds_the_library(private, tmp_path, monkeypatch):
+    """A compiler that refuses -march=native gets the portable flags; the library is built and gives the same numbers."""
+    folder, log = private
+    refusing = tmp_path / "old-cc"
+    refusing.write_text(f'#!/bin/sh\ncase "$*" in *-march=native*) exit 1;; esac\nexec {os.environ["CC"]} "$@"\n')
+    refusing.chmod(0o700)
+    monkeypatch.setenv("CC", str(refusing))
+    monkeypatch.setenv("ARMCAL_COMPILE", "now")
+    spec = ROOT / "examples" / "theodolite" / "spec.yaml"
+    machine_code, start = problem_of(spec)
+    assert compiles(log) == 1 and "-march=native" not in log.read_text() and len(list(folder.glob("*.so"))) == 1
+    monkeypatch.setenv("ARMCAL_COMPILE", "off")
+    interpreted, _ = problem_of(spec)
+    (r1, J1), (r2, J2) = interpreted.evaluate(start), machine_code.evaluate(start)
+    assert np.abs(r1 - r2).max() < 1e-9 and np.abs(J1 - J2).max() < 1e-9 * max(1.0, np.abs(J1).max())

@@ -129,7 +129,9 @@ def test_robust_loss_lists_gross_errors_and_keeps_the_fit():
 
 
 def test_compiled_functions_are_cached_and_equal_the_interpreted_ones(tmp_path, monkeypatch):
-    """The compiled library is built once per setup, reused by later problems, and gives identical numbers."""
+    """The compiled library is built once per setup, reused by later problems, and gives the interpreter's numbers to
+    rounding: the library is built for this processor (fused multiply-add), so predicted readings may differ in their
+    last bits (an ulp of an angle over a sigma of 1e-5 rad is 1e-11 in the weighted residual)."""
     monkeypatch.setenv("ARMCAL_CACHE", str(tmp_path))
     s = setup(SPECS / "puma560_theodolite.yaml")
     data = measure(s.kinematics, s.device, s.plans[0], None, None)
@@ -143,10 +145,13 @@ def test_compiled_functions_are_cached_and_equal_the_interpreted_ones(tmp_path, 
     monkeypatch.setenv("PATH", "")
     interpreted = build_problem(s.kinematics, s.device, data)
     theta = first.parameters.nominal + 1e-3
+    sigma, measured = first.residuals.sigma, first.residuals.measured
     for other in (second, interpreted):
         r1, J1 = first.evaluate(theta)
         r2, J2 = other.evaluate(theta)
-        assert np.abs(r1 - r2).max() < 1e-12 and np.abs(J1 - J2).max() < 1e-9
+        predicted = r1 * sigma + measured
+        assert np.all(np.abs((r1 - r2) * sigma) <= 1e-14 * np.maximum(1.0, np.abs(predicted)))  # a few ulps
+        assert np.abs(J1 - J2).max() < 1e-9
 
 
 def test_the_tracker_start_keeps_the_base_components_a_spec_holds(tmp_path):

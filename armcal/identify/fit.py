@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armcal.identify.identifiability import Conditioning, Identifiability, analyse, conditioning
+from armcal.identify.identifiability import Conditioning, Identifiability, analyse, conditioning, triangular
 from armcal.identify.lm import LMResult, solve
 from armcal.identify.problem import Problem
 from armcal.identify.uncertainty import Uncertainty, estimate
@@ -76,6 +76,7 @@ def fit(problem: Problem, settings: Fit, start: np.ndarray | None = None, identi
     else:
         weights = np.sqrt(solver.weights)
         weighted, r_weighted = J * weights[:, None], r * weights
-    uncertainty = estimate(weighted, r_weighted, list(identifiability.base))
+    R = triangular(weighted)  # J^T J = R^T R: all the uncertainty and the conditioning need of J
+    uncertainty = estimate(R, r_weighted, list(identifiability.base))
     outliers = np.flatnonzero(solver.weights < OUTLIER_WEIGHT)
-    return FitResult(theta, theta0, base, identifiability, conditioning(weighted, list(identifiability.base)), uncertainty, solver, outliers)
+    return FitResult(theta, theta0, base, identifiability, conditioning(R, list(identifiability.base)), uncertainty, solver, outliers)

@@ -33,7 +33,8 @@ class Uncertainty:
 
 
 def estimate(J: np.ndarray, r: np.ndarray, names: list[str]) -> Uncertainty:
-    """Covariance of the parameters of the weighted Jacobian J (M, p) at the solution."""
+    """Covariance of the parameters of the weighted Jacobian J (M, p) at the solution (or of its triangular factor R,
+    R^T R = J^T J) from the weighted residuals r (M,)."""
     chi2 = float(r @ r)
     dof = max(len(r) - J.shape[1], 1)
     p_value = float(chdtrc(dof, chi2))

@@ -8,7 +8,6 @@ task must be a picklable top-level function and its arguments.
 
 from __future__ import annotations
 
-import os
 import re
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -16,13 +15,14 @@ from multiprocessing import get_context
 from typing import Any
 
 from armcal.errors import UserError
+from armcal.identify.threads import limit, processors
 
 Progress = Callable[[Any], None]  # called with each result as it arrives
 
 
 def default_workers() -> int:
     """One worker per core the process may use."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    return processors()
 
 
 def run_tasks(
@@ -41,7 +41,8 @@ def run_tasks(
             report(results[-1])
         return results
     results: list = [None] * len(tasks)
-    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+    shares = max(1, default_workers() // workers)  # each worker's threads (identify/threads.py): its part of the processors
+    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=limit, initargs=(shares,)) as pool:
         position = {pool.submit(function, task): i for i, task in enumerate(tasks)}
         try:
             for future in as_completed(position):

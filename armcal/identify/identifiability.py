@@ -43,6 +43,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg
 
+from armcal.identify.threads import side_by_side, workers
 from armcal.kinematics.params import ParameterSet
 
 RANK_TOLERANCE = 1e-7  # norm of a unit column's part the columns chosen before it leave, below which it adds nothing
@@ -88,7 +89,7 @@ def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identi
         basis = np.column_stack([basis, directions])
     base = columns[chosen]
     base_names = [names[c] for c in base]
-    fixed += [(names[columns[k]], _redundancy(scaled[:, chosen], base_names, scaled[:, k])) for k in dependent]
+    fixed += [(names[columns[k]], reason) for k, reason in zip(dependent, _redundancies(scaled[:, chosen], base_names, scaled[:, dependent]))]
     rank = len(base)
     singular = np.linalg.svd(scaled[:, chosen], compute_uv=False) if rank else np.zeros(0)
     condition = float(singular[0] / singular[-1]) if rank else float("inf")
@@ -130,8 +131,18 @@ def _pivoted(columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def triangular(J: np.ndarray) -> np.ndarray:
-    """R (p, p) with R^T R = J^T J (J itself when it has no more rows than columns): QR of J's first ROWS rows, then
-    of R stacked on the next ROWS rows, and so on (each step's copy is ROWS rows, never J)."""
+    """R (p, p) with R^T R = J^T J (J itself when it has no more rows than columns): the R of each worker's share of
+    J's rows (threads.py), side by side, then the R of those stacked."""
+    shares = min(workers(), len(J) // ROWS)
+    if shares <= 1:
+        return _blockwise(J)
+    bounds = np.linspace(0, len(J), shares + 1).astype(int)
+    return _blockwise(np.concatenate(side_by_side(_blockwise, [J[a:b] for a, b in zip(bounds[:-1], bounds[1:])])))
+
+
+def _blockwise(J: np.ndarray) -> np.ndarray:
+    """R of J: QR of J's first ROWS rows, then of R stacked on the next ROWS rows, and so on (each step's copy is
+    ROWS rows, never J)."""
     p = J.shape[1]
     if len(J) <= p:
         return J
@@ -178,7 +189,7 @@ def extend(design: Identifiability, J: np.ndarray, parameters: ParameterSet, nam
             continue
         rest = _off(basis, (column / norm)[:, None])[:, 0]
         if np.linalg.norm(rest) <= RANK_TOLERANCE:
-            fixed.append((name, _redundancy(scaled, base_names, column / norm) + " at the design point"))
+            fixed.append((name, _redundancies(scaled, base_names, (column / norm)[:, None])[0] + " at the design point"))
             continue
         basis = np.column_stack([basis, rest / np.linalg.norm(rest)])
         scaled = np.column_stack([scaled, column / norm])
@@ -187,13 +198,18 @@ def extend(design: Identifiability, J: np.ndarray, parameters: ParameterSet, nam
     return replace(design, rank=design.rank + added, base=tuple(base_names), fixed=tuple(fixed))
 
 
-def _redundancy(scaled_base: np.ndarray, base_names: list[str], unit: np.ndarray) -> str:
-    """Which base parameters a dependent (unit) column is a combination of: the largest weights of its fit."""
-    weight = np.abs(np.linalg.lstsq(scaled_base, unit, rcond=None)[0]) if base_names else np.zeros(0)
-    if not len(weight) or weight.max() == 0:
-        return "not identifiable from these data"
-    order = [i for i in np.argsort(-weight) if weight[i] >= 0.1 * weight.max()][:4]
-    return "redundant with " + ", ".join(base_names[i] for i in order)
+def _redundancies(scaled_base: np.ndarray, base_names: list[str], units: np.ndarray) -> list[str]:
+    """Which base parameters each dependent (unit) column of ``units`` is a combination of: the largest weights of
+    its fit (one least-squares solve for all)."""
+    weights = np.abs(np.linalg.lstsq(scaled_base, units, rcond=None)[0]) if base_names else np.zeros((0, units.shape[1]))
+    reasons = []
+    for weight in weights.T:
+        if not len(weight) or weight.max() == 0:
+            reasons.append("not identifiable from these data")
+            continue
+        order = [i for i in np.argsort(-weight) if weight[i] >= 0.1 * weight.max()][:4]
+        reasons.append("redundant with " + ", ".join(base_names[i] for i in order))
+    return reasons
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ Parameter values and sigmas never enter the function either, so its compiled lib
 from __future__ import annotations
 
 import copy
+import threading
 from dataclasses import dataclass, replace
 
 import casadi as ca
@@ -25,6 +26,7 @@ from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key, held_in_contact
 from armcal.effects.measurement import EffectSet, extras_matrix
 from armcal.identify.compiled import compiled
+from armcal.identify.threads import side_by_side, workers
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
 
@@ -91,7 +93,7 @@ CHUNK = 512  # samples per mapped call: its buffers stay cache-sized and small w
 
 class KeyBlock:
     """All samples of one key: mapped calls of the key's compiled function over chunks of CHUNK samples, each
-    weighted in numpy straight into the problem's residual vector and Jacobian.
+    weighted in numpy straight into the problem's residual vector and Jacobian, the chunks shared out to threads (threads.py).
 
     The joint readings and extras are the calls' fixed inputs; theta is the only one
     that changes, repeated for every sample of a call (a map widens each input; an MX
@@ -100,7 +102,8 @@ class KeyBlock:
     CasADi's function buffer (converting CasADi matrices costs more than evaluating
     them); the Jacobian's nonzeros of sample k are the k-th run of the per-sample
     pattern (the mapped output is the samples' Jacobians side by side), so no dense
-    copy of the mapped output is ever made.
+    copy of the mapped output is ever made. Each thread has its own buffers; the chunks
+    write disjoint rows, so the numbers are the same as one thread's, bit for bit.
     """
 
     def __init__(self, function: ca.Function, Q: np.ndarray, X: np.ndarray, channels: list[ChannelRows]):
@@ -108,7 +111,7 @@ class KeyBlock:
         self._q = np.ascontiguousarray(Q, dtype=float)  # row k: column k of a mapped call's Q input (column-major)
         self._x = np.ascontiguousarray(X, dtype=float)
         self._theta = np.zeros((min(CHUNK, len(Q)), function.size1_in(2)))  # row k: theta of a call's sample k
-        self._calls: dict[int, tuple] = {}  # samples in a call -> (buffer, run, values, jacobian nonzeros)
+        self._calls: dict[tuple[int, int], tuple] = {}  # (thread, samples in a call) -> (buffer, run, values, jacobian)
         values, jacobian = function.sparsity_out(0), function.sparsity_out(1)
         self._value_rows = np.array(values.get_triplet()[0], dtype=int)
         self._n_out = values.size1()
@@ -122,16 +125,17 @@ class KeyBlock:
         return sum(len(c.rows) for c in self.channels)
 
     def _mapped(self, count: int) -> tuple:
-        """The buffer of a call over ``count`` samples (made once; the chunks of that length share it)."""
-        if count not in self._calls:
+        """This thread's buffer of a call over ``count`` samples (made once; its chunks of that length share it)."""
+        key = (threading.get_ident(), count)
+        if key not in self._calls:
             mapped = self._function.map(count)
             buffer, run = mapped.buffer()
             values, jacobian = np.zeros(mapped.nnz_out(0)), np.zeros(mapped.nnz_out(1))
             buffer.set_arg(2, memoryview(self._theta[:count].reshape(-1)))
             buffer.set_res(0, memoryview(values))
             buffer.set_res(1, memoryview(jacobian))
-            self._calls[count] = (buffer, run, values, jacobian)
-        return self._calls[count]
+            self._calls[key] = (buffer, run, values, jacobian)
+        return self._calls[key]
 
     def weighted(self, theta: np.ndarray, position: np.ndarray, r: np.ndarray, J: np.ndarray, start: int) -> None:
         """Write the block's weighted residuals into r[start:start + size] and their Jacobian into the same rows of J;
@@ -142,31 +146,40 @@ class KeyBlock:
         for c in self.channels:
             nonzeros = np.flatnonzero(taken & (self._jacobian_rows == c.channel))
             wanted.append((nonzeros, position[self._jacobian_columns[nonzeros]]))
-        count = len(self._q)
-        for first in range(0, count, CHUNK):
-            last = min(first + CHUNK, count)
-            buffer, run, values, jacobian = self._mapped(last - first)
-            buffer.set_arg(0, memoryview(self._q[first:last].reshape(-1)))
-            buffer.set_arg(1, memoryview(self._x[first:last].reshape(-1)))
-            run()
-            predicted = np.zeros((last - first, self._n_out))
-            predicted[:, self._value_rows] = values.reshape(last - first, -1)
-            per_sample = jacobian.reshape(last - first, -1)
-            row = start
-            for c, (nonzeros, target) in zip(self.channels, wanted):
-                low, high = np.searchsorted(c.rows, (first, last))
-                here = slice(row + low, row + high)
-                local = c.rows[low:high] - first
-                every = high - low == last - first  # all samples of the chunk take part: slices, no copies
-                difference = (predicted[:, c.channel] if every else predicted[local, c.channel]) - c.measured[low:high]
-                if c.angle:
-                    difference = np.arctan2(np.sin(difference), np.cos(difference))
-                weight = c.weight[low:high]
-                r[here] = difference * weight
-                if len(nonzeros):
-                    block = per_sample[:, nonzeros] if every else per_sample[local][:, nonzeros]
-                    J[here, target] = block * weight[:, None]
-                row += len(c.rows)
+        firsts = range(0, len(self._q), CHUNK)
+
+        def evaluate(share: range) -> None:
+            for first in share:
+                self._chunk(first, wanted, r, J, start)
+
+        shares = min(workers(), len(firsts))
+        side_by_side(evaluate, [firsts[k::shares] for k in range(shares)])  # each writes rows of its own
+
+    def _chunk(self, first: int, wanted: list, r: np.ndarray, J: np.ndarray, start: int) -> None:
+        """The samples first .. first + CHUNK: one mapped call, weighted into their rows of r and J."""
+        last = min(first + CHUNK, len(self._q))
+        buffer, run, values, jacobian = self._mapped(last - first)
+        buffer.set_arg(0, memoryview(self._q[first:last].reshape(-1)))
+        buffer.set_arg(1, memoryview(self._x[first:last].reshape(-1)))
+        run()
+        predicted = np.zeros((last - first, self._n_out))
+        predicted[:, self._value_rows] = values.reshape(last - first, -1)
+        per_sample = jacobian.reshape(last - first, -1)
+        row = start
+        for c, (nonzeros, target) in zip(self.channels, wanted):
+            low, high = np.searchsorted(c.rows, (first, last))
+            here = slice(row + low, row + high)
+            local = c.rows[low:high] - first
+            every = high - low == last - first  # all samples of the chunk take part: slices, no copies
+            difference = (predicted[:, c.channel] if every else predicted[local, c.channel]) - c.measured[low:high]
+            if c.angle:
+                difference = np.arctan2(np.sin(difference), np.cos(difference))
+            weight = c.weight[low:high]
+            r[here] = difference * weight
+            if len(nonzeros):
+                block = per_sample[:, nonzeros] if every else per_sample[local][:, nonzeros]
+                J[here, target] = block * weight[:, None]
+            row += len(c.rows)
 
     def with_weights(self, weights: list[np.ndarray]) -> "KeyBlock":
         """The same block (the same compiled calls) with new weights 1 / sigma, one array per channel."""

@@ -1,0 +1,76 @@
+"""A problem's evaluation and a Jacobian's QR shared out to threads (identify/threads.py): the same numbers as one
+thread's, bit for bit for the evaluation (each chunk writes rows of its own) and to rounding for R (R^T R = J^T J,
+checked against numpy's J^T J); an exception in a share is raised; a forked child still evaluates."""
+
+import multiprocessing
+
+import numpy as np
+import pytest
+from conftest import SPECS
+from identify_helpers import measure, setup
+
+from armcal.identify import threads
+from armcal.identify.identifiability import ROWS, triangular
+from armcal.identify.problem import CHUNK, build_problem
+
+
+@pytest.fixture
+def workers():
+    """Restores the process's worker count after a test changes it."""
+    before = threads.workers()
+    yield
+    threads.limit(before)
+
+
+def _problem():
+    """A theodolite campaign of several chunks (two stations, one key each)."""
+    s = setup(SPECS / "puma560_theodolite.yaml", [("count: 150\n  seed: 3", "count: 2500\n  seed: 3")])
+    return build_problem(s.kinematics, s.device, measure(s.kinematics, s.device, s.plans[0], None, None))
+
+
+def test_the_evaluation_is_the_same_on_one_thread_and_on_four(workers):
+    problem = _problem()
+    assert max(len(b._q) for b in problem.blocks) > 3 * CHUNK  # every thread gets chunks
+    theta = problem.parameters.nominal + 1e-4 * np.random.default_rng(0).standard_normal(len(problem.parameters.names))
+    threads.limit(1)
+    r1, J1 = problem.evaluate(theta)
+    threads.limit(4)
+    r4, J4 = problem.evaluate(theta)
+    assert np.array_equal(r1, r4) and np.array_equal(J1, J4)
+
+
+def test_the_triangular_factor_of_shares_is_j_s(workers):
+    rng = np.random.default_rng(1)
+    J = rng.normal(size=(4 * ROWS + 123, 40)) * rng.uniform(0.01, 100.0, size=40)
+    gram = J.T @ J
+    for count in (1, 2, 4):
+        threads.limit(count)
+        R = triangular(J)
+        assert R.shape == (40, 40) and np.allclose(np.tril(R, -1), 0.0)
+        assert np.abs(R.T @ R - gram).max() <= 1e-12 * np.abs(gram).max()
+
+
+def test_an_exception_in_a_share_is_raised_here():
+    def work(share):
+        if share == 1:
+            raise ZeroDivisionError("in the second share")
+        return share
+
+    assert threads.side_by_side(work, [0, 2]) == [0, 2]
+    with pytest.raises(ZeroDivisionError, match="second share"):
+        threads.side_by_side(work, [0, 1])
+
+
+def _in_child(connection):
+    connection.send(threads.side_by_side(lambda share: share * share, [2, 3]))
+
+
+def test_a_forked_child_evaluates_with_threads_of_its_own():
+    """The pool's threads are not copied by fork: a child that used the parent's pool would wait for ever."""
+    threads.side_by_side(abs, [-1, -2])  # the parent's pool has threads now
+    parent, child = multiprocessing.get_context("fork").Pipe()
+    process = multiprocessing.get_context("fork").Process(target=_in_child, args=(child,), daemon=True)
+    process.start()
+    assert parent.poll(30), "the forked child did not answer"
+    assert parent.recv() == [4, 9]
+    process.join(10)

@@ -12,6 +12,9 @@ which are asserted equal first. Issue 7's cases:
 (d) The UR10's real laser-tracker data of ../shared/data (fit Series C, validate on Series B);
     skipped when ../shared is absent.
 
+armcal shares each fit's evaluations and QR out to one thread per processor (identify/threads.py, at most 4);
+the note under each case gives its time on one thread too. The baseline runs on one (scipy's MINPACK).
+
 Run: .venv/bin/python benchmarks/bench_identification.py   (prints one table; times are medians)
 """
 
@@ -27,6 +30,7 @@ from armcal.dataio.ipa import read_ipa
 from armcal.dataio.reader import read_measurements
 from armcal.dataio.writer import write_measurements
 from armcal.devices import device_model
+from armcal.identify import threads
 from armcal.identify.fit import fit
 from armcal.identify.problem import build_problem
 from armcal.identify.starting_values import starting_values
@@ -51,6 +55,10 @@ def compare(name: str, spec, calibration, validation=None, start_from_data: bool
     model = NumpyCampaign(spec.robot, numpy_device(spec), names, calibration)
     assert_same_model(model, problem, start)
     armcal_time, result = median_time(lambda: fit(problem, spec.fit, start), repeats)
+    shared = threads.workers()
+    threads.limit(1)
+    one_thread, _ = median_time(lambda: fit(problem, spec.fit, start), repeats)
+    threads.limit(shared)
     baseline_time, (theta, calls) = median_time(lambda: scipy_lm_fd(model, start, result.base), repeats=3)
     line = row(
         f"{name}: {len(result.base)}/{len(names)} par, {len(problem.residuals.sample)} res",
@@ -61,7 +69,8 @@ def compare(name: str, spec, calibration, validation=None, start_from_data: bool
     )
     note = (
         f"    (armcal: problem built and compiled/loaded in {setup * 1000:.0f} ms, once per setup; {result.solver.iterations} LM iterations;"
-        f" baseline: {calls} residual evaluations incl. finite differences)"
+        f" {shared} threads, on one thread {one_thread * 1000:.1f} ms = ratio {baseline_time / one_thread:.1f};"
+        f" baseline: {calls} residual evaluations incl. finite differences, one thread)"
     )
     return [line, note]
 
@@ -104,7 +113,7 @@ def case_d() -> list[str]:
             path = Path(folder) / f"{series}.csv"
             write_measurements(path, read_ipa(next((SERIES / f"Series_{series}").glob("measurements_*.csv")), "tmac", spec.device.orientation), spec)
             data[series] = read_measurements(path, spec)
-    lines = compare("(d) UR10 real, C (val B)", spec, data["C"], data["B"], start_from_data=True, repeats=5)
+    lines = compare("(d) UR10 real, C (val B)", spec, data["C"], data["B"], start_from_data=True)
     return lines + ["    (both start from armcal's registration of the tracker (Kabsch); positions and probe orientations fitted)"]
 
 

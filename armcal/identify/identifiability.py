@@ -50,7 +50,7 @@ RANK_TOLERANCE = 1e-7  # norm of a unit column's part the columns chosen before 
 PRIORITY = ("device", "target", "chain")  # who carries a redundancy: the instrument and the targets before the robot
 FLAT_RATIO = 1e-3  # s_k / s_1 of the scaled base Jacobian below which a direction is reported as flat
 TIE = 1e-8  # relative difference of two columns' new parts below which the one first in the spec is taken
-ROWS = 4096  # rows of J per step of its blockwise QR (triangular)
+ROWS = 1024  # rows of J per step of its blockwise QR (triangular)
 
 
 @dataclass(frozen=True)

@@ -88,7 +88,7 @@ class ChannelRows:
     angle: bool
 
 
-CHUNK = 512  # samples per mapped call: its buffers stay cache-sized and small whatever the size of the data
+CHUNK = 256  # samples per mapped call: its buffers stay cache-sized and small whatever the size of the data
 
 
 class KeyBlock:

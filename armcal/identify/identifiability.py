@@ -43,7 +43,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg
 
-from armcal.identify.threads import side_by_side, workers
+from armcal.identify.threads import each
 from armcal.kinematics.params import ParameterSet
 
 RANK_TOLERANCE = 1e-7  # norm of a unit column's part the columns chosen before it leave, below which it adds nothing
@@ -51,6 +51,7 @@ PRIORITY = ("device", "target", "chain")  # who carries a redundancy: the instru
 FLAT_RATIO = 1e-3  # s_k / s_1 of the scaled base Jacobian below which a direction is reported as flat
 TIE = 1e-8  # relative difference of two columns' new parts below which the one first in the spec is taken
 ROWS = 1024  # rows of J per step of its blockwise QR (triangular)
+SHARE = 4 * ROWS  # rows of J whose R one thread computes (triangular)
 
 
 @dataclass(frozen=True)
@@ -131,13 +132,11 @@ def _pivoted(columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def triangular(J: np.ndarray) -> np.ndarray:
-    """R (p, p) with R^T R = J^T J (J itself when it has no more rows than columns): the R of each worker's share of
-    J's rows (threads.py), side by side, then the R of those stacked."""
-    shares = min(workers(), len(J) // ROWS)
-    if shares <= 1:
+    """R (p, p) with R^T R = J^T J (J itself when it has no more rows than columns): the R of each SHARE rows of J,
+    shared out to threads (threads.py), then the R of those stacked; the same cut on any number of threads."""
+    if len(J) <= SHARE:
         return _blockwise(J)
-    bounds = np.linspace(0, len(J), shares + 1).astype(int)
-    return _blockwise(np.concatenate(side_by_side(_blockwise, [J[a:b] for a, b in zip(bounds[:-1], bounds[1:])])))
+    return _blockwise(np.concatenate(each(_blockwise, [J[first : first + SHARE] for first in range(0, len(J), SHARE)])))
 
 
 def _blockwise(J: np.ndarray) -> np.ndarray:

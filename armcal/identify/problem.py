@@ -26,7 +26,7 @@ from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key, held_in_contact
 from armcal.effects.measurement import EffectSet, extras_matrix
 from armcal.identify.compiled import compiled
-from armcal.identify.threads import side_by_side, workers
+from armcal.identify.threads import each
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
 
@@ -146,14 +146,7 @@ class KeyBlock:
         for c in self.channels:
             nonzeros = np.flatnonzero(taken & (self._jacobian_rows == c.channel))
             wanted.append((nonzeros, position[self._jacobian_columns[nonzeros]]))
-        firsts = range(0, len(self._q), CHUNK)
-
-        def evaluate(share: range) -> None:
-            for first in share:
-                self._chunk(first, wanted, r, J, start)
-
-        shares = min(workers(), len(firsts))
-        side_by_side(evaluate, [firsts[k::shares] for k in range(shares)])  # each writes rows of its own
+        each(lambda first: self._chunk(first, wanted, r, J, start), range(0, len(self._q), CHUNK))  # rows of its own each
 
     def _chunk(self, first: int, wanted: list, r: np.ndarray, J: np.ndarray, start: int) -> None:
         """The samples first .. first + CHUNK: one mapped call, weighted into their rows of r and J."""

@@ -1,19 +1,20 @@
 """The threads the numerical work shares out: the compiled calls of a problem's evaluation (CasADi runs them
-without Python's lock) and the row blocks of a Jacobian's QR (LAPACK runs without it too) go side by side, one
-share per processor this process may use (at most MAX_WORKERS). A process pool's workers (parallel.py) divide
-the processors among them instead; BLAS itself stays single-threaded (armcal/__init__.py)."""
+without Python's lock) and the row blocks of a Jacobian's QR (LAPACK runs without it too), one share per processor
+this process may use (at most MAX_WORKERS). What is cut into items never depends on the number of threads, so the
+numbers are the same bit for bit on one thread or four. A process pool's workers (parallel.py) divide the
+processors among them; BLAS itself stays single-threaded (armcal/__init__.py)."""
 
 from __future__ import annotations
 
 import functools
 import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from typing import TypeVar
 
 MAX_WORKERS = 4  # beyond this, the shares of a problem's evaluation are too small to gain from more
 
-Share = TypeVar("Share")
+Item = TypeVar("Item")
 Result = TypeVar("Result")
 
 
@@ -26,12 +27,12 @@ _workers = [max(1, min(MAX_WORKERS, processors()))]
 
 
 def workers() -> int:
-    """How many shares the work is cut into."""
+    """How many threads share the work out."""
     return _workers[0]
 
 
 def limit(count: int) -> None:
-    """Use ``count`` workers (a process pool's worker: its part of the processors)."""
+    """Use ``count`` threads (a process pool's worker: its part of the processors)."""
     _workers[0] = max(1, min(MAX_WORKERS, count))
 
 
@@ -43,10 +44,21 @@ def _pool() -> ThreadPoolExecutor:
 os.register_at_fork(after_in_child=_pool.cache_clear)  # a forked child has none of the pool's threads
 
 
-def side_by_side(work: Callable[[Share], Result], shares: Sequence[Share]) -> list[Result]:
-    """``work(share)`` for each share, the first in this thread and the others in the pool's threads, at the same
-    time; the results in the shares' order (an exception in any share is raised here)."""
-    if len(shares) > MAX_WORKERS:
-        raise ValueError(f"{len(shares)} shares for at most {MAX_WORKERS} workers")
-    others = [_pool().submit(work, share) for share in shares[1:]]
-    return [work(share) for share in shares[:1]] + [other.result() for other in others]
+def each(work: Callable[[Item], Result], items: Sequence[Item]) -> list[Result]:
+    """[work(item) for item in items], item k done by thread k mod n of n = workers() (this thread the first share,
+    the pool's threads the others, at the same time); an exception in any item is raised here."""
+    n = min(workers(), len(items))
+
+    def share(k: int) -> list[Result]:
+        return [work(item) for item in items[k::n]]
+
+    others = [_pool().submit(share, k) for k in range(1, n)]
+    try:
+        shares = [share(0)] if n else []
+    finally:
+        wait(others)  # no thread still works when this returns or raises
+    shares += [other.result() for other in others]
+    results: list = [None] * len(items)
+    for k, done in enumerate(shares):
+        results[k::n] = done
+    return results

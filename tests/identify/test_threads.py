@@ -1,8 +1,9 @@
-"""A problem's evaluation and a Jacobian's QR shared out to threads (identify/threads.py): the same numbers as one
-thread's, bit for bit for the evaluation (each chunk writes rows of its own) and to rounding for R (R^T R = J^T J,
-checked against numpy's J^T J); an exception in a share is raised; a forked child still evaluates."""
+"""A problem's evaluation and a Jacobian's QR shared out to threads (identify/threads.py): the same numbers on one
+thread and on four, bit for bit (what is cut into items does not depend on the threads), R^T R = J^T J against
+numpy's J^T J; an exception in an item is raised; a forked child still evaluates."""
 
 import multiprocessing
+import time
 
 import numpy as np
 import pytest
@@ -10,7 +11,7 @@ from conftest import SPECS
 from identify_helpers import measure, setup
 
 from armcal.identify import threads
-from armcal.identify.identifiability import ROWS, triangular
+from armcal.identify.identifiability import SHARE, triangular
 from armcal.identify.problem import CHUNK, build_problem
 
 
@@ -39,35 +40,47 @@ def test_the_evaluation_is_the_same_on_one_thread_and_on_four(workers):
     assert np.array_equal(r1, r4) and np.array_equal(J1, J4)
 
 
-def test_the_triangular_factor_of_shares_is_j_s(workers):
+def test_the_triangular_factor_is_j_s_and_the_same_on_any_number_of_threads(workers):
     rng = np.random.default_rng(1)
-    J = rng.normal(size=(4 * ROWS + 123, 40)) * rng.uniform(0.01, 100.0, size=40)
+    J = rng.normal(size=(3 * SHARE + 123, 40)) * rng.uniform(0.01, 100.0, size=40)
     gram = J.T @ J
+    factors = []
     for count in (1, 2, 4):
         threads.limit(count)
-        R = triangular(J)
-        assert R.shape == (40, 40) and np.allclose(np.tril(R, -1), 0.0)
-        assert np.abs(R.T @ R - gram).max() <= 1e-12 * np.abs(gram).max()
+        factors.append(triangular(J))
+    R = factors[0]
+    assert R.shape == (40, 40) and np.allclose(np.tril(R, -1), 0.0)
+    assert np.abs(R.T @ R - gram).max() <= 1e-12 * np.abs(gram).max()
+    assert all(np.array_equal(R, other) for other in factors[1:])
 
 
-def test_an_exception_in_a_share_is_raised_here():
-    def work(share):
-        if share == 1:
-            raise ZeroDivisionError("in the second share")
-        return share
+def test_an_exception_in_an_item_is_raised_here_after_every_thread_is_done(workers):
+    threads.limit(2)
+    done = []
 
-    assert threads.side_by_side(work, [0, 2]) == [0, 2]
-    with pytest.raises(ZeroDivisionError, match="second share"):
-        threads.side_by_side(work, [0, 1])
+    def work(item):
+        if item == 1:
+            raise ZeroDivisionError("in the second item")
+        time.sleep(0.05)
+        done.append(item)
+        return item
+
+    assert threads.each(work, [0, 2, 3]) == [0, 2, 3]
+    done.clear()
+    with pytest.raises(ZeroDivisionError, match="second item"):
+        threads.each(work, [0, 1, 2, 3])
+    assert sorted(done) == [0, 2]  # thread 0's items 0 and 2 finished; thread 1 stopped at item 1
 
 
 def _in_child(connection):
-    connection.send(threads.side_by_side(lambda share: share * share, [2, 3]))
+    threads.limit(2)
+    connection.send(threads.each(lambda item: item * item, [2, 3]))
 
 
-def test_a_forked_child_evaluates_with_threads_of_its_own():
+def test_a_forked_child_evaluates_with_threads_of_its_own(workers):
     """The pool's threads are not copied by fork: a child that used the parent's pool would wait for ever."""
-    threads.side_by_side(abs, [-1, -2])  # the parent's pool has threads now
+    threads.limit(2)
+    threads.each(abs, [-1, -2])  # the parent's pool has threads now
     parent, child = multiprocessing.get_context("fork").Pipe()
     process = multiprocessing.get_context("fork").Process(target=_in_child, args=(child,), daemon=True)
     process.start()

@@ -37,8 +37,9 @@ def limit(count: int) -> None:
 
 
 @functools.cache
-def _pool() -> ThreadPoolExecutor:
-    return ThreadPoolExecutor(MAX_WORKERS - 1, thread_name_prefix="armcal")
+def _pool(size: int) -> ThreadPoolExecutor:
+    """``size`` threads: one per share but this thread's, so each share's buffers are made by a few threads only."""
+    return ThreadPoolExecutor(size, thread_name_prefix="armcal")
 
 
 os.register_at_fork(after_in_child=_pool.cache_clear)  # a forked child has none of the pool's threads
@@ -52,7 +53,7 @@ def each(work: Callable[[Item], Result], items: Sequence[Item]) -> list[Result]:
     def share(k: int) -> list[Result]:
         return [work(item) for item in items[k::n]]
 
-    others = [_pool().submit(share, k) for k in range(1, n)]
+    others = [_pool(n - 1).submit(share, k) for k in range(1, n)]
     try:
         shares = [share(0)] if n else []
     finally:

@@ -16,7 +16,6 @@ Parameter values and sigmas never enter the function either, so its compiled lib
 from __future__ import annotations
 
 import copy
-import threading
 from dataclasses import dataclass, replace
 
 import casadi as ca
@@ -26,7 +25,7 @@ from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key, held_in_contact
 from armcal.effects.measurement import EffectSet, extras_matrix
 from armcal.identify.compiled import compiled
-from armcal.identify.threads import each
+from armcal.identify.threads import each, share
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
 
@@ -102,8 +101,10 @@ class KeyBlock:
     CasADi's function buffer (converting CasADi matrices costs more than evaluating
     them); the Jacobian's nonzeros of sample k are the k-th run of the per-sample
     pattern (the mapped output is the samples' Jacobians side by side), so no dense
-    copy of the mapped output is ever made. Each thread has its own buffers; the chunks
-    write disjoint rows, so the numbers are the same as one thread's, bit for bit.
+    copy of the mapped output is ever made. Each share of the chunks has its own buffers; the
+    chunks write disjoint rows, so the numbers are the same as one thread's, bit for bit. A
+    block (and its with_weights copies, which share its buffers) is evaluated by one caller at
+    a time.
     """
 
     def __init__(self, function: ca.Function, Q: np.ndarray, X: np.ndarray, channels: list[ChannelRows]):
@@ -111,7 +112,7 @@ class KeyBlock:
         self._q = np.ascontiguousarray(Q, dtype=float)  # row k: column k of a mapped call's Q input (column-major)
         self._x = np.ascontiguousarray(X, dtype=float)
         self._theta = np.zeros((min(CHUNK, len(Q)), function.size1_in(2)))  # row k: theta of a call's sample k
-        self._calls: dict[tuple[int, int], tuple] = {}  # (thread, samples in a call) -> (buffer, run, values, jacobian)
+        self._calls: dict[tuple[int, int], tuple] = {}  # (share, samples in a call) -> (buffer, run, values, jacobian)
         values, jacobian = function.sparsity_out(0), function.sparsity_out(1)
         self._value_rows = np.array(values.get_triplet()[0], dtype=int)
         self._n_out = values.size1()
@@ -125,8 +126,8 @@ class KeyBlock:
         return sum(len(c.rows) for c in self.channels)
 
     def _mapped(self, count: int) -> tuple:
-        """This thread's buffer of a call over ``count`` samples (made once; its chunks of that length share it)."""
-        key = (threading.get_ident(), count)
+        """This share's buffer of a call over ``count`` samples (made once; its chunks of that length share it)."""
+        key = (share(), count)
         if key not in self._calls:
             mapped = self._function.map(count)
             buffer, run = mapped.buffer()

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import os
+import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor, wait
 from typing import TypeVar
@@ -37,25 +38,39 @@ def limit(count: int) -> None:
 
 
 @functools.cache
-def _pool(size: int) -> ThreadPoolExecutor:
-    """``size`` threads: one per share but this thread's, so each share's buffers are made by a few threads only."""
-    return ThreadPoolExecutor(size, thread_name_prefix="armcal")
+def _pool() -> ThreadPoolExecutor:
+    return ThreadPoolExecutor(MAX_WORKERS - 1, thread_name_prefix="armcal")
 
 
 os.register_at_fork(after_in_child=_pool.cache_clear)  # a forked child has none of the pool's threads
+_local = threading.local()
+
+
+def share() -> int:
+    """Which share of the running ``each`` this thread works on (0 outside one): a share's items run one after
+    another, so what a share keeps between items (a call's buffers) needs no lock."""
+    return getattr(_local, "share", 0)
 
 
 def each(work: Callable[[Item], Result], items: Sequence[Item]) -> list[Result]:
-    """[work(item) for item in items], item k done by thread k mod n of n = workers() (this thread the first share,
-    the pool's threads the others, at the same time); an exception in any item is raised here."""
-    n = min(workers(), len(items))
+    """[work(item) for item in items], item k done in share k mod n of n = workers() (this thread the first share,
+    the pool's threads the others, at the same time; all in this thread when called from inside a share); an
+    exception in any item is raised here once every share has stopped."""
+    inside = hasattr(_local, "share")
+    n = 1 if inside else min(workers(), len(items))
 
-    def share(k: int) -> list[Result]:
-        return [work(item) for item in items[k::n]]
+    def run(k: int) -> list[Result]:
+        if inside:  # the items are part of this thread's share
+            return [work(item) for item in items]
+        _local.share = k
+        try:
+            return [work(item) for item in items[k::n]]
+        finally:
+            del _local.share
 
-    others = [_pool(n - 1).submit(share, k) for k in range(1, n)]
+    others = [_pool().submit(run, k) for k in range(1, n)]
     try:
-        shares = [share(0)] if n else []
+        shares = [run(0)] if n else []
     finally:
         wait(others)  # no thread still works when this returns or raises
     shares += [other.result() for other in others]

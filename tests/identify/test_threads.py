@@ -87,3 +87,10 @@ def test_a_forked_child_evaluates_with_threads_of_its_own(workers):
     assert parent.poll(30), "the forked child did not answer"
     assert parent.recv() == [4, 9]
     process.join(10)
+
+
+def test_each_inside_an_item_runs_there_and_does_not_wait_for_the_pool(workers):
+    """A share that shares out again would wait for pool threads that are all busy with shares: it runs inline."""
+    threads.limit(2)
+    nested = threads.each(lambda i: threads.each(lambda j: (i, j, threads.share()), [0, 1, 2]), [0, 1])
+    assert nested == [[(0, j, 0) for j in range(3)], [(1, j, 1) for j in range(3)]]

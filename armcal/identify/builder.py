@@ -104,7 +104,9 @@ def build(source: Path, library: Path, compiler: str) -> None:
         partial = Path(work) / library.name
         try:
             subprocess.run([compiler, *FLAGS, str(source), "-o", str(partial)], check=True, capture_output=True)
-        except subprocess.CalledProcessError:  # e.g. a compiler that does not know -march=native
+        except subprocess.CalledProcessError as refused:
+            if b"march" not in refused.stderr:  # another failure: compiling it again would fail again
+                raise
             subprocess.run([compiler, *PORTABLE, str(source), "-o", str(partial)], check=True, capture_output=True)
         os.chmod(partial, 0o700)
         record = Path(work) / hash_file(library).name

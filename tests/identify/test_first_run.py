@@ -204,17 +204,36 @@ def test_a_library_for_this_processor_is_not_loaded_on_another(private, monkeypa
 
 
 def test_a_compiler_without_march_native_still_builds_the_library(private, tmp_path, monkeypatch):
-    """A compiler that refuses -march=native gets the portable flags; the library is built and gives the same numbers."""
+    """A compiler that refuses -march=native gets the portable flags; the library is built and gives the same numbers.
+    Any other compiler failure is not retried."""
     folder, log = private
-    refusing = tmp_path / "old-cc"
-    refusing.write_text(f'#!/bin/sh\ncase "$*" in *-march=native*) exit 1;; esac\nexec {os.environ["CC"]} "$@"\n')
+    refusing, attempts = tmp_path / "old-cc", tmp_path / "attempts.log"
+    refusing.write_text(
+        f'#!/bin/sh\necho "$@" >> {attempts}\n'
+        f'case "$*" in *-march=native*) echo "error: unrecognized command-line option -march=native" >&2; exit 1;; esac\n'
+        f'exec {os.environ["CC"]} "$@"\n'
+    )
     refusing.chmod(0o700)
     monkeypatch.setenv("CC", str(refusing))
     monkeypatch.setenv("ARMCAL_COMPILE", "now")
     spec = ROOT / "examples" / "theodolite" / "spec.yaml"
     machine_code, start = problem_of(spec)
-    assert compiles(log) == 1 and "-march=native" not in log.read_text() and len(list(folder.glob("*.so"))) == 1
+    tried = attempts.read_text().splitlines()
+    assert len(tried) == 2 and "-march=native" in tried[0] and "-march=native" not in tried[1]  # refused, then portable
+    assert compiles(log) == 1 and len(list(folder.glob("*.so"))) == 1
     monkeypatch.setenv("ARMCAL_COMPILE", "off")
     interpreted, _ = problem_of(spec)
     (r1, J1), (r2, J2) = interpreted.evaluate(start), machine_code.evaluate(start)
     assert np.abs(r1 - r2).max() < 1e-9 and np.abs(J1 - J2).max() < 1e-9 * max(1.0, np.abs(J1).max())
+
+
+def test_a_compile_that_fails_otherwise_is_not_tried_again(private, tmp_path, monkeypatch):
+    folder, _ = private
+    failing, attempts = tmp_path / "broken-cc", tmp_path / "attempts.log"
+    failing.write_text(f'#!/bin/sh\necho "$@" >> {attempts}\necho "fatal error: no space left on device" >&2\nexit 1\n')
+    failing.chmod(0o700)
+    monkeypatch.setenv("CC", str(failing))
+    monkeypatch.setenv("ARMCAL_COMPILE", "now")
+    functions = functions_of(ROOT / "examples" / "theodolite" / "spec.yaml")
+    assert cache.compiled(functions) == functions  # evaluated by the virtual machine
+    assert len(attempts.read_text().splitlines()) == 1 and not list(folder.glob("*.so"))

@@ -49,7 +49,8 @@ from armcal.kinematics.params import ParameterSet
 RANK_TOLERANCE = 1e-7  # norm of a unit column's part the columns chosen before it leave, below which it adds nothing
 PRIORITY = ("device", "target", "chain")  # who carries a redundancy: the instrument and the targets before the robot
 FLAT_RATIO = 1e-3  # s_k / s_1 of the scaled base Jacobian below which a direction is reported as flat
-TIE = 1e-8  # relative difference of two columns' new parts below which the one first in the spec is taken
+TIE = 1e-10  # difference of two unit columns' new parts below which the one first in the spec is taken (rounding
+# makes new parts as small as RANK_TOLERANCE err by up to ~1e-13: a relative tie would be no wider than that)
 ROWS = 1024  # rows of J per step of its blockwise QR (triangular)
 SHARE = 4 * ROWS  # rows of J whose R one thread computes (triangular)
 
@@ -120,7 +121,7 @@ def _pivoted(columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         largest = parts.max(initial=0.0)
         if largest <= RANK_TOLERANCE:
             break
-        k = int(np.flatnonzero(parts >= largest * (1.0 - TIE))[0])
+        k = int(np.flatnonzero(parts >= largest - TIE)[0])
         q = rest[:, k] / parts[k]
         if directions:  # once more off the directions before it: Gram-Schmidt loses orthogonality once
             q = _off(np.column_stack(directions), q[:, None])[:, 0]

@@ -74,10 +74,16 @@ def _on_dask(function: Callable, tasks: Sequence, scheduler: str, report: Progre
     except (OSError, TimeoutError, ValueError) as exc:
         raise UserError(f"cannot reach the Dask scheduler at {scheduler} ({exc})") from None
     with client:
-        futures = client.map(function, list(tasks), pure=False)
+        futures = client.map(_on_one_thread, [function] * len(tasks), list(tasks), pure=False)
         position = {future.key: i for i, future in enumerate(futures)}
         results: list = [None] * len(tasks)
         for future in dask_completed(futures, loop=client.loop):
             results[position[future.key]] = future.result()
             report(results[position[future.key]])
     return results
+
+
+def _on_one_thread(function: Callable, task: Any) -> Any:
+    """A Dask task: a worker runs several at once, one per thread, so each keeps to its own (identify/threads.py)."""
+    limit(1)
+    return function(task)

@@ -2,8 +2,8 @@
 
 All functions of a problem are generated as C in one file and compiled once by
 the system's C compiler; the shared object is kept under a hash of the functions'
-serialized graphs, CasADi's version (together they fix the C source), the compiler
-and its flags, so it is keyed on what its machine code depends on, and a run that
+serialized graphs, CasADi's version (together they fix the C source), the compiler,
+its flags and the processor (builder.py compiles for this one), so it is keyed on what its machine code depends on, and a run that
 finds its library generates no C at all. Values a user edits often (noise, nominal values, limits, data) are
 inputs of the functions or never enter them, so editing them reuses the library;
 a change of structure (another robot, instrument, key or candidate effect) builds
@@ -15,7 +15,7 @@ When the library is not built yet, $ARMCAL_COMPILE says what to do:
   issue 18): compile at once and load the library; a compile that waits on another
   builder of the same cache waits for it rather than building the same file twice;
 - ``background`` (the default of the ``armcal`` command): evaluate with CasADi's
-  virtual machine at once (the same numbers to 1e-12) and leave the compile to a
+  virtual machine at once (the same numbers to rounding) and leave the compile to a
   detached process (builder.py), so the first run pays no compile and later runs
   load the library;
 - ``off``: never compile (the virtual machine only).

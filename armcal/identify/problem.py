@@ -147,10 +147,22 @@ class KeyBlock:
         for c in self.channels:
             nonzeros = np.flatnonzero(taken & (self._jacobian_rows == c.channel))
             wanted.append((nonzeros, position[self._jacobian_columns[nonzeros]]))
-        each(lambda first: self._chunk(first, wanted, r, J, start), range(0, len(self._q), CHUNK))  # rows of its own each
+        complete = all(len(c.rows) == len(self._q) for c in self.channels)
+        chunk = self._complete_chunk if complete else self._chunk
+        if complete:  # every channel reads every sample: the block's residuals are a (channels, samples) array
+            wanted = (wanted, self._complete(r[start : start + self.size]))
+        each(lambda first: chunk(first, wanted, r, J, start), range(0, len(self._q), CHUNK))  # rows of its own each
 
-    def _chunk(self, first: int, wanted: list, r: np.ndarray, J: np.ndarray, start: int) -> None:
-        """The samples first .. first + CHUNK: one mapped call, weighted into their rows of r and J."""
+    def _complete(self, r: np.ndarray) -> tuple:
+        """What a chunk of a block whose channels read every sample needs: its residuals as (channels, samples), the
+        measured values and weights as (samples, channels), the channels and their angle flags."""
+        measured = np.stack([c.measured for c in self.channels], axis=1)
+        weight = np.stack([c.weight for c in self.channels], axis=1)
+        angles = np.array([c.angle for c in self.channels])
+        return r.reshape(len(self.channels), len(self._q)), [c.channel for c in self.channels], measured, weight, angles
+
+    def _called(self, first: int) -> tuple[int, np.ndarray, np.ndarray]:
+        """One mapped call over the samples first .. first + CHUNK: its last sample, readings and Jacobians."""
         last = min(first + CHUNK, len(self._q))
         buffer, run, values, jacobian = self._mapped(last - first)
         buffer.set_arg(0, memoryview(self._q[first:last].reshape(-1)))
@@ -158,7 +170,26 @@ class KeyBlock:
         run()
         predicted = np.zeros((last - first, self._n_out))
         predicted[:, self._value_rows] = values.reshape(last - first, -1)
-        per_sample = jacobian.reshape(last - first, -1)
+        return last, predicted, jacobian.reshape(last - first, -1)
+
+    def _complete_chunk(self, first: int, wanted: tuple, r: np.ndarray, J: np.ndarray, start: int) -> None:
+        """A chunk of a block whose channels read every sample: the residuals of all channels at once (the same
+        numbers as _chunk's, in a few calls, so a thread holds Python's lock briefly)."""
+        (per_channel, (residuals, channels, measured, weight, angles)), n = wanted, len(self._q)
+        last, predicted, per_sample = self._called(first)
+        difference = predicted[:, channels] - measured[first:last]
+        if angles.any():
+            wrapped = difference[:, angles]
+            difference[:, angles] = np.arctan2(np.sin(wrapped), np.cos(wrapped))
+        w = weight[first:last]
+        residuals[:, first:last] = (difference * w).T
+        for k, (nonzeros, target) in enumerate(per_channel):
+            if len(nonzeros):
+                J[start + k * n + first : start + k * n + last, target] = per_sample[:, nonzeros] * w[:, k, None]
+
+    def _chunk(self, first: int, wanted: list, r: np.ndarray, J: np.ndarray, start: int) -> None:
+        """The samples first .. first + CHUNK: one mapped call, weighted into their rows of r and J."""
+        last, predicted, per_sample = self._called(first)
         row = start
         for c, (nonzeros, target) in zip(self.channels, wanted):
             low, high = np.searchsorted(c.rows, (first, last))

@@ -12,7 +12,7 @@ from identify_helpers import measure, setup
 
 from armcal.identify import threads
 from armcal.identify.identifiability import SHARE, triangular
-from armcal.identify.problem import CHUNK, build_problem
+from armcal.identify.problem import CHUNK, KeyBlock, build_problem
 
 
 @pytest.fixture
@@ -94,3 +94,15 @@ def test_each_inside_an_item_runs_there_and_does_not_wait_for_the_pool(workers):
     threads.limit(2)
     nested = threads.each(lambda i: threads.each(lambda j: (i, j, threads.share()), [0, 1, 2]), [0, 1])
     assert nested == [[(0, j, 0) for j in range(3)], [(1, j, 1) for j in range(3)]]
+
+
+def test_a_block_whose_channels_read_every_sample_gives_the_per_channel_numbers(monkeypatch):
+    """The residuals of all channels at once (KeyBlock._complete_chunk) against the channel-by-channel path."""
+    problem = _problem()
+    assert all(len(c.rows) == len(b._q) for b in problem.blocks for c in b.channels)  # every block takes the first
+    theta = problem.parameters.nominal + 1e-4 * np.random.default_rng(4).standard_normal(len(problem.parameters.names))
+    r1, J1 = problem.evaluate(theta)
+    per_channel = lambda block, first, wanted, r, J, start: KeyBlock._chunk(block, first, wanted[0], r, J, start)  # noqa: E731
+    monkeypatch.setattr(KeyBlock, "_complete_chunk", per_channel)
+    r2, J2 = problem.evaluate(theta)
+    assert np.array_equal(r1, r2) and np.array_equal(J1, J2)

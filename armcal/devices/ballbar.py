@@ -18,7 +18,7 @@ from pydantic import Field
 from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.effects.library import EffectSpec
 from armcal.kinematics import ik
-from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
+from armcal.kinematics.params import ParameterSet, parameter_entry, point_entries
 from armcal.kinematics.transforms import on_sphere
 from armcal.spec.base import Length, LengthParam
 from armcal.spec.starter import mm
@@ -125,9 +125,7 @@ class BallBarModel(DeviceModel):
 
     def __init__(self, spec: BallBar):
         self.spec = spec
-        entries = []
-        for name, point in spec.pivots.items():
-            entries += pose_entries(f"pivot.{name}", point, ("x", "y", "z"))
+        entries = point_entries("pivot", spec.pivots)
         entries.append(parameter_entry("bar.length", "length", spec.length))
         self.parameters = ParameterSet(tuple(entries))
 

@@ -26,7 +26,7 @@ from armcal.devices.base import Channel, DeviceModel, Key, transform_point
 from armcal.effects.library import EffectSpec
 from armcal.errors import UserError
 from armcal.kinematics.compiler import pose_from_symbols
-from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
+from armcal.kinematics.params import ParameterSet, parameter_entry, point_entries, pose_entries
 from armcal.kinematics.transforms import xyz_zyx
 from armcal.spec.base import Length, Number, ScaleParam, SpecModel, fixed
 from armcal.spec.starter import mm
@@ -270,9 +270,7 @@ class SonicModel(DeviceModel):
         self.mode = mode
         self.averaging = averaging
         self.microphones = tuple(spec.microphones)
-        entries = pose_entries("robot_base", spec.robot_base)
-        for name, point in spec.microphones.items():
-            entries += pose_entries(f"mic.{name}", point, ("x", "y", "z"))
+        entries = pose_entries("robot_base", spec.robot_base) + point_entries("mic", spec.microphones)
         entries.append(parameter_entry("sonic.scale", "scale", spec.scale))
         self.parameters = ParameterSet(tuple(entries))
         nominal = dict(zip(self.parameters.names, self.parameters.nominal))

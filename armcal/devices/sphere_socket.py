@@ -20,7 +20,7 @@ from pydantic import Field
 
 from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.kinematics import ik
-from armcal.kinematics.params import ParameterSet, pose_entries
+from armcal.kinematics.params import ParameterSet, point_entries
 from armcal.spec.base import Length, SpecModel
 from armcal.spec.starter import flange_point, mm
 from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
@@ -121,10 +121,7 @@ class SphereSocketModel(DeviceModel):
 
     def __init__(self, spec: SphereSocket):
         self.spec = spec
-        entries = []
-        for name, point in spec.sockets.items():
-            entries += pose_entries(f"socket.{name}", point, ("x", "y", "z"))
-        self.parameters = ParameterSet(tuple(entries))
+        self.parameters = ParameterSet(tuple(point_entries("socket", spec.sockets)))
 
     def channels(self, key: Key) -> tuple[Channel, ...]:
         return (Channel("length", "length"),) if _certified(key) else RESIDUALS

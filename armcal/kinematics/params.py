@@ -95,6 +95,11 @@ def pose_entries(prefix: str, pose, fields=POSE_FIELDS) -> list[ParameterInfo]:
     return out
 
 
+def point_entries(prefix: str, points: dict) -> list[ParameterInfo]:
+    """Entries ``prefix.name.x|y|z`` of named points (an instrument's pivots, sockets, microphones), in their order."""
+    return [entry for name, point in points.items() for entry in pose_entries(f"{prefix}.{name}", point, ("x", "y", "z"))]
+
+
 def parameter_set(robot: RobotBase) -> ParameterSet:
     """All parameters of a spec robot in chain order: base, joints (and links), tool, targets.
 

@@ -30,7 +30,8 @@ from armcal.evaluate.montecarlo import ChunkResult, check_points, chunks, run_ch
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve, accuracy_label
 from armcal.evaluate.study_statistics import index_statistics, trend
 from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, variant
-from armcal.parallel import default_workers, run_tasks
+from armcal.identify.threads import processors
+from armcal.parallel import run_tasks
 from armcal.planner import DEFAULT_CANDIDATES
 from armcal.procedures.tasks import grid_task
 from armcal.report.render import write_files
@@ -77,7 +78,7 @@ def montecarlo(
     seed = (spec.simulate.seed if spec.simulate else 0) if seed is None else seed
     first = check_points(points, folder)  # the grid, solved where the study's robots will be sent
     grid = {**grid_placement(first.grid, spec.robot.units), **first.control.describe()}
-    workers = workers or default_workers()
+    workers = workers or processors()
     size = max(1, min(25, math.ceil(runs * len(points) / (4 * workers))))
     total, done = runs * len(points), [0]
 

@@ -20,11 +20,6 @@ from armcal.identify.threads import limit, processors
 Progress = Callable[[Any], None]  # called with each result as it arrives
 
 
-def default_workers() -> int:
-    """One worker per core the process may use."""
-    return processors()
-
-
 def run_tasks(
     function: Callable, tasks: Sequence, scheduler: str | None = None, workers: int | None = None, progress: Progress | None = None
 ) -> list:
@@ -33,7 +28,7 @@ def run_tasks(
     if scheduler is not None:
         check_scheduler_address(scheduler)
         return _on_dask(function, tasks, scheduler, report)
-    workers = min(workers or default_workers(), len(tasks))
+    workers = min(workers or processors(), len(tasks))  # one worker per processor by default
     if workers <= 1:
         results = []
         for task in tasks:
@@ -41,7 +36,7 @@ def run_tasks(
             report(results[-1])
         return results
     results: list = [None] * len(tasks)
-    shares = max(1, default_workers() // workers)  # each worker's threads (identify/threads.py): its part of the processors
+    shares = max(1, processors() // workers)  # each worker's threads (identify/threads.py): its part of the processors
     with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=limit, initargs=(shares,)) as pool:
         position = {pool.submit(function, task): i for i, task in enumerate(tasks)}
         try:

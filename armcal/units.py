@@ -45,6 +45,17 @@ def factor(kind: str, unit: str) -> float:
 
 LARGEST = 1e9  # mm or rad: a kilometre a thousand times over; beyond it squares and sums lose all precision
 SMALLEST = 1e-30  # below it a weight 1 / sigma overflows to infinity
+DUST = 1e-12  # mm or rad (or deg, 1): a computed value smaller than this is rounding error, written as 0
+
+
+def snapped(value: float) -> float:
+    """A computed value as it is written into a spec: rounding dust (below DUST) as 0, never as -0.0.
+
+    The spec's input rules (magnitudes SMALLEST to LARGEST, or 0) are for what a user writes; a value armcal
+    computed, such as a pseudo-DH offset of 3e-32 mm between parallel axes, passes through here instead.
+    """
+    value = float(value)
+    return 0.0 if abs(value) < DUST else value
 
 
 def to_internal(value: float | int | str, kind: str, default_unit: str) -> float:

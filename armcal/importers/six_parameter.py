@@ -15,15 +15,15 @@ import numpy as np
 
 from armcal.importers.urdf import UrdfChain
 from armcal.kinematics.transforms import pose_from_matrix
+from armcal.units import snapped
 
 LINK = ("x", "y", "z", "alpha", "beta", "gamma")  # Trans(x, y, z) Rot(z, alpha) Rot(y, beta) Rot(x, gamma)
 TOOL = ("x", "y", "z", "rz", "ry", "rx")  # Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx): the same product
 TARGET = "tool_point"
-ROUNDING = 1e-12  # mm or deg: a value smaller than this is rounding error of the URDF's numbers, written as 0
 
 
 def _number(value: float, digits: int = 15) -> str:
-    return f"{(value if abs(value) >= ROUNDING else 0.0) + 0.0:.{digits}g}"
+    return f"{snapped(value):.{digits}g}"
 
 
 def _pose(T: np.ndarray, fields: tuple[str, ...], fixed: bool = False) -> list[str]:

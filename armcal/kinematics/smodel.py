@@ -13,6 +13,7 @@ import numpy as np
 
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, inverse, pose_from_matrix, rot_z, trans
+from armcal.units import snapped
 
 PARALLEL_TOL = 1e-10  # |sin| below which two joint axes count as parallel
 
@@ -126,10 +127,10 @@ class PseudoDH:
     joint_types: tuple[str, ...]
 
     def robot_dict(self, name: str, serial: str, limits: np.ndarray) -> dict:
-        """A ``dh`` robot spec section (mm, rad) that reproduces this model."""
-        pose = lambda T: dict(zip(("x", "y", "z", "rz", "ry", "rx"), pose_from_matrix(T)))  # noqa: E731
+        """A ``dh`` robot spec section (mm, rad) that reproduces this model, rounding dust written as 0."""
+        pose = lambda T: dict(zip(("x", "y", "z", "rz", "ry", "rx"), map(snapped, pose_from_matrix(T))))  # noqa: E731
         joints = [
-            {"type": kind, "limits": list(map(float, lim)), **row.__dict__}
+            {"type": kind, "limits": list(map(float, lim)), **{field: snapped(value) for field, value in row.__dict__.items()}}
             for row, kind, lim in zip(self.rows, self.joint_types, limits)
         ]
         return {

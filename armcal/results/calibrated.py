@@ -25,7 +25,7 @@ from armcal.effects.library import to_spec_dict
 from armcal.kinematics.params import parameter_set
 from armcal.spec.document import Spec
 from armcal.spec.locations import yaml_path
-from armcal.units import from_internal
+from armcal.units import from_internal, snapped
 
 SIGNIFICANT = 15  # a 2 m transform to 2e-12 mm: the readings reproduced far below any noise
 
@@ -97,12 +97,12 @@ def calibrated_yaml(
     root = yaml.load(spec_text)
     shown = lambda value, kind: float(f"{from_internal(value, kind, spec.robot.units.of(kind)):.{SIGNIFICANT}g}")  # noqa: E731
     for name, (value, kind, held, std) in identified.items():
-        _set(root, yaml_path(name, spec), shown(value, kind), held, None if std is None else float(f"{std:.3g}"))
+        _set(root, yaml_path(name, spec), shown(snapped(value), kind), held, None if std is None else float(f"{std:.3g}"))
     _drop_earlier_std(root, spec, set(identified))
     if added_effects:
         effects = root.setdefault("effects", CommentedSeq())
         for effect, values in added_effects:
-            effects.append(to_spec_dict(effect, {field: shown(v, kind) for field, (v, kind) in values.items()}))
+            effects.append(to_spec_dict(effect, {field: shown(snapped(v), kind) for field, (v, kind) in values.items()}))
     if noise:
         device = root["device"]
         for field, (sigma, kind) in noise.items():

@@ -177,12 +177,12 @@ def solve_from_starts_why(
     p: np.ndarray | None = None,
     starts: int = 12,
     seed: int = 0,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``solve_from_starts`` and why a goal has no configuration: (Q (M, n), outcome (M,), joint (M,)).
+) -> tuple[np.ndarray, np.ndarray, list[tuple[int, ...]]]:
+    """``solve_from_starts`` and why a goal has no configuration: (Q (M, n), outcome (M,), blocking joints per goal).
 
     outcome: SOLVED, OUTSIDE_LIMITS (Newton-Raphson converged from some start, every solution leaves a
-    joint limit) or UNSOLVED (no start converged); joint: for OUTSIDE_LIMITS the 0-based joint whose limit
-    the solution nearest the middle leaves, else -1.
+    joint limit) or UNSOLVED (no start converged); blocking: for OUTSIDE_LIMITS the 0-based joints whose
+    limits block the goal (``blocking_joints``), else ().
     """
     goals = np.atleast_2d(goals)
     rng = np.random.default_rng(seed)
@@ -199,12 +199,29 @@ def solve_from_starts_why(
     chosen[~solved] = np.nan
     converged = result.converged.reshape(count, len(seeds))
     outcome = np.where(solved, SOLVED, np.where(converged.any(axis=1), OUTSIDE_LIMITS, UNSOLVED))
-    joint = np.full(count, -1)
-    outside = (Q < low) | (Q > high)
-    excess = np.where(result.converged, np.linalg.norm((Q - middle) / (high - low), axis=1), np.inf).reshape(count, len(seeds))
-    for i in np.flatnonzero(outcome == OUTSIDE_LIMITS):
-        joint[i] = int(np.argmax(outside.reshape(count, len(seeds), -1)[i, excess[i].argmin()]))
-    return chosen, outcome, joint
+    per_goal = Q.reshape(count, len(seeds), -1)
+    blocking = [blocking_joints(model, per_goal[i][converged[i]]) if outcome[i] == OUTSIDE_LIMITS else () for i in range(count)]
+    return chosen, outcome, blocking
+
+
+def blocking_joints(model: KinematicModel, solutions: np.ndarray) -> tuple[int, ...]:
+    """The 0-based joints whose limits block a goal, from its solutions (k, n) wrapped into the limits.
+
+    The joints that every solution leaves; when no joint is common to all, those of the solution that leaves
+    its limits least (each joint's distance outside its range, the shorter way round for a revolute joint, over
+    the range's width). Which solutions Newton-Raphson finds from random starts varies with the last bits of
+    the arithmetic; a joint every solution leaves does not.
+    """
+    low, high = model.limits[:, 0], model.limits[:, 1]
+    outside = (solutions < low) | (solutions > high)
+    common = np.all(outside, axis=0)
+    if common.any():
+        return tuple(int(j) for j in np.flatnonzero(common))
+    above = solutions - high
+    revolute = np.array([kind == "revolute" for kind in model.joint_types])
+    above = np.where(revolute, np.minimum(above, low + 2 * np.pi - solutions), above)
+    excess = np.where(outside, np.maximum(low - solutions, above), 0.0) / (high - low)
+    return tuple(int(j) for j in np.flatnonzero(outside[np.argmin(excess.sum(axis=1))]))
 
 
 def wrap_into_limits(model: KinematicModel, Q: np.ndarray) -> np.ndarray:

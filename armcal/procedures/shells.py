@@ -62,11 +62,11 @@ def plan_shells(procedure: Shells, kinematics: KinematicModel, device: DeviceMod
         inward = (centre - points) / radius
         axis = inward + [0.0, 0.0, -1.0]
         axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-        q, outcome, joint = ik.solve_from_starts_why(kinematics, np.concatenate([points, axis], axis=1), frame=pairing.sphere, seed=seed)
+        q, outcome, blocking = ik.solve_from_starts_why(kinematics, np.concatenate([points, axis], axis=1), frame=pairing.sphere, seed=seed)
         ok = outcome == ik.SOLVED
         reachable = np.zeros(len(points), dtype=bool)
         reachable[ok] = device.visible(key, kinematics.target_poses(pairing.sphere, q[ok]))
-        why = _reasons(kinematics, pairing.sphere, points, centre, radius, outcome, joint, ok & ~reachable)
+        why = _reasons(kinematics, pairing.sphere, points, centre, radius, outcome, blocking, ok & ~reachable)
         label = f"{pairing.pivot}-{pairing.sphere}"
         dropped, where = {}, {}
         for reason in dict.fromkeys(r for r in why if r):
@@ -77,8 +77,8 @@ def plan_shells(procedure: Shells, kinematics: KinematicModel, device: DeviceMod
     return Plan.join(plans)
 
 
-def _reasons(kinematics, sphere, points, centre, radius, outcome, joint, travel) -> list[str]:
-    """Per point: '' (kept) or why it is dropped (a DROP_REASONS key, a joint limit naming the joint)."""
+def _reasons(kinematics, sphere, points, centre, radius, outcome, blocking, travel) -> list[str]:
+    """Per point: '' (kept) or why it is dropped (a DROP_REASONS key, a joint limit naming the blocking joints)."""
     names = kinematics.joint_names
     unsolved = outcome == ik.UNSOLVED
     far = np.zeros(len(points), dtype=bool)
@@ -92,7 +92,7 @@ def _reasons(kinematics, sphere, points, centre, radius, outcome, joint, travel)
         if unsolved[i]:
             out.append("pivot out of reach" if pivot_far else "beyond the arm's reach" if far[i] else "no inverse kinematics")
         elif outcome[i] == ik.OUTSIDE_LIMITS:
-            out.append(f"joint limit ({names[joint[i]]})")
+            out.append(f"joint limit ({', '.join(names[j] for j in blocking[i])})")
         elif travel[i]:
             out.append("bar travel")
         else:

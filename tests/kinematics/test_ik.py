@@ -29,3 +29,22 @@ def test_point_and_axis_goal_of_a_target(puma_models):
     assert ok.mean() > 0.95
     assert np.abs(got[ok][:, :3, 3] - T[ok][:, :3, 3]).max() < 1e-5
     assert np.abs(got[ok][:, :3, 2] - T[ok][:, :3, 2]).max() < 1e-6
+
+
+def test_the_joints_blocking_a_goal_are_those_every_solution_leaves_else_the_least_excess():
+    """ik.blocking_joints: a joint every solution leaves is named whatever other joints some solutions leave;
+    without one, the solution leaving its limits least names its joints (a revolute joint measured the short way)."""
+    from types import SimpleNamespace
+
+    from armcal.kinematics.ik import blocking_joints
+
+    deg = np.radians
+    model = SimpleNamespace(limits=deg(np.array([[-30.0, 30.0], [-180.0, 0.0], [40.0, 160.0]])), joint_types=("revolute",) * 3)
+    common = deg(np.array([[100.0, -90.0, 300.0], [200.0, 10.0, 90.0]]))  # j1 out in both, j2 and j3 in one each
+    assert blocking_joints(model, common) == (0,)
+    # no joint common: [j2 10 deg above 0, of a 180 deg range] against [j3 at 300 deg, 100 deg short of 40 the short
+    # way round (not 140 above 160), of 120] and [j3 at 165, 5 of 120]: the last leaves least, then the first
+    mixed = deg(np.array([[0.0, 10.0, 90.0], [0.0, -90.0, 300.0], [0.0, -90.0, 165.0]]))
+    assert blocking_joints(model, mixed) == (2,) and blocking_joints(model, mixed[:2]) == (1,)
+    wrapped = deg(np.array([[0.0, 20.0, 90.0], [0.0, -90.0, 395.0]]))  # j3 at 395 = 35 deg: 5 deg below 40 the short way
+    assert blocking_joints(model, wrapped) == (2,)

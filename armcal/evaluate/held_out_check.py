@@ -7,10 +7,13 @@ readings poorly. Two reasons can be told apart with what the run has:
   parameters poorly determined (a flat direction of the base Jacobian), so the
   prediction at held-out poses carries the covariance C of the base parameters,
   J_v C J_v' (the linearised propagation behind Stone's 7.4 spreads); the
-  expected variance of each weighted held-out residual is s^2 + (J_v C J_v')_ii,
+  weighted held-out residuals are expected with covariance S = s^2 I + J_v C J_v',
   s^2 the noise's (1, or chi2/dof where the noise check scaled C);
 - something the calibration data do not contain: the held-out residuals exceed even
-  that expectation (a chi2 test on the n held-out readings at NOISE_CHECK_LEVEL):
+  that expectation (r' S^-1 r, chi2 with n degrees of freedom on the n held-out
+  readings, tested at NOISE_CHECK_LEVEL). The parameters' error is one draw shared by
+  every held-out reading: summing r_i^2 / S_ii instead would count a flat direction's
+  one degree of freedom n times, and the verdict would turn on that draw alone:
   the instrument moved, a parameter only the held-out data use is held at a wrong
   value (an extension rod's length, another target), or an effect the calibration
   poses cannot see.
@@ -45,7 +48,7 @@ def held_out_check(calibration: Problem, validation: Problem | None, result: Fit
     A = J[:, result.base]
     propagated = np.einsum("ij,jk,ik->i", A, uncertainty.covariance, A)
     expected = noise + propagated
-    chi2 = float(np.sum(r**2 / expected))
+    chi2 = _chi2(r, A, uncertainty.covariance, noise)
     dof = len(r)
     p_value = float(chdtrc(dof, chi2))
     share = float(propagated.sum() / expected.sum())
@@ -67,6 +70,16 @@ def held_out_check(calibration: Problem, validation: Problem | None, result: Fit
         "held_out_only": only_held_out,
         "verdict": verdict,
     }
+
+
+def _chi2(r: np.ndarray, A: np.ndarray, covariance: np.ndarray, noise: float) -> float:
+    """r' S^-1 r with S = noise I + A C A' (n x n, never formed): C = V L V', B = A V L^1/2, and by Woodbury
+    S^-1 = (I - B (noise I + B'B)^-1 B') / noise, a p x p solve for p base parameters."""
+    values, vectors = np.linalg.eigh((covariance + covariance.T) / 2)
+    B = A @ (vectors * np.sqrt(np.clip(values, 0.0, None)))
+    Br = B.T @ r
+    inner = np.linalg.solve(noise * np.eye(B.shape[1]) + B.T @ B, Br)
+    return float((r @ r - Br @ inner) / noise)
 
 
 def _only_held_out(calibration: Problem, validation: Problem, J: np.ndarray, theta: np.ndarray) -> list[str]:

@@ -62,7 +62,7 @@ def _load(text: str, tmp_path):
     except SpecError as exc:
         assert exc.issues and all(issue.line is not None or "YAML" in issue.message for issue in exc.issues), exc
         assert all(issue.message for issue in exc.issues)
-    assert time.perf_counter() - started < 5.0
+    assert time.perf_counter() - started < 60.0  # a hang guard (nested aliases, huge numbers), not a speed goal
 
 
 @settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -1,5 +1,6 @@
 """Synthetic campaigns whose truth is known exactly: the fitted model with its base parameters moved."""
 
+import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -31,12 +32,10 @@ def setup(spec_path: Path, text_changes=()) -> Setup:
     for old, new in text_changes:
         assert old in text, old
         text = text.replace(old, new)
-    path = spec_path.with_name(f".test_{spec_path.name}")
-    path.write_text(text)
-    try:
+    with tempfile.TemporaryDirectory() as scratch:  # never beside the shipped spec: other tests and workers read that folder
+        path = Path(scratch) / spec_path.name
+        path.write_text(text)
         spec = load_spec(path).spec
-    finally:
-        path.unlink()
     kinematics, device = compile_robot(spec.robot), device_model(spec)
     plans = [plan(p, kinematics, device, spec, spec_path.parent) for p in (spec.procedure, spec.validation or spec.procedure)]
     probe = build_problem(kinematics, device, measure(kinematics, device, plans[0], None, None))

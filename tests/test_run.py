@@ -5,7 +5,7 @@ import subprocess
 import sys
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, copy_example
 
 from armcal.pipeline import run
 from armcal.results.schema import Results
@@ -69,16 +69,13 @@ def test_calibrated_spec_holds_the_identified_values(tmp_path):
 
 
 def test_a_fit_that_cannot_converge_exits_3_with_its_reason(tmp_path):
-    text = (ROOT / "examples" / "theodolite" / "spec.yaml").read_text().replace("simulate:", "fit: {max_iterations: 1}\nsimulate:")
-    spec = ROOT / "examples" / "theodolite" / ".test_not_converging.yaml"
-    spec.write_text(text)
-    try:
-        cmd = [sys.executable, "-m", "armcal", "run", str(spec), "--out", str(tmp_path)]
-        result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
-    finally:
-        spec.unlink()
+    (tmp_path / "example").mkdir()
+    spec = copy_example("theodolite", tmp_path / "example") / "spec.yaml"
+    spec.write_text(spec.read_text().replace("simulate:", "fit: {max_iterations: 1}\nsimulate:"))
+    cmd = [sys.executable, "-m", "armcal", "run", str(spec), "--out", str(tmp_path / "out")]
+    result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert result.returncode == 3, result.stderr
-    data = json.loads((tmp_path / "results.json").read_text())
+    data = json.loads((tmp_path / "out" / "results.json").read_text())
     assert data["status"] == "not_converged" and "iteration limit" in data["solver"]["reason"]
 
 

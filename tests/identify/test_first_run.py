@@ -29,6 +29,7 @@ from armcal.pipeline import fitted_device
 from armcal.spec import load_spec
 
 EXAMPLES = ("goswami_ballbar", "hidden_harmonic", "puma560_sonic", "theodolite")
+HANG = 60.0  # s: waits that only a hang reaches, however loaded the machine
 
 
 @pytest.fixture
@@ -73,7 +74,7 @@ def cpu_seconds() -> float:
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
-def wait_for_builds(folder, timeout=120.0):
+def wait_for_builds(folder, timeout=2 * HANG):
     """Until the background builds in ``folder`` are done (their build-* folders removed)."""
     started = time.perf_counter()
     while any(folder.glob("build-*")):
@@ -138,7 +139,7 @@ def test_a_cold_start_does_not_wait_for_the_compiler(private, capsys, monkeypatc
     waited = cpu_seconds() - waited
     assert compiles(log) == 2
     print(f"background call: {cpu:.3f} s CPU, {wall:.3f} s wall; compile now: {waited:.2f} s CPU")
-    assert waited > 1.0 and cpu < 0.2 * waited, (cpu, wall, waited)  # the compile's CPU time is not the caller's
+    assert cpu < 0.2 * waited, (cpu, wall, waited)  # the compile's CPU time is not the caller's
 
 
 def test_two_cold_processes_compile_once_and_leave_only_the_library(private, monkeypatch):
@@ -160,14 +161,20 @@ def test_two_cold_processes_compile_once_and_leave_only_the_library(private, mon
 def test_a_killed_builder_leaves_no_library_and_the_next_run_builds_it(private, monkeypatch):
     """A builder killed mid-compile (SIGKILL: no clean-up) puts nothing in place; the next compile is whole."""
     folder, log = private
+    gate = log.parent / "gate"  # the compiler waits for it: the builder is killed mid-compile however fast cc is
+    wrapper = log.parent / "cc"
+    wrapper.write_text(wrapper.read_text().replace("exec ", f"while [ ! -e {gate} ]; do sleep 0.05; done\nexec ", 1))
     functions = functions_of(ROOT / "examples" / "theodolite" / "spec.yaml")
     monkeypatch.setenv("ARMCAL_COMPILE", "background")
     cache.compiled(functions)
     work = next(folder.glob("build-*"))
     builder = _process_holding(str(work))
+    deadline = time.perf_counter() + HANG
     while compiles(log) == 0:
+        assert time.perf_counter() < deadline, "the builder never started its compiler"
         time.sleep(0.01)
     os.kill(builder, 9)
+    gate.touch()
     time.sleep(0.5)
     assert not list(folder.glob("*.so"))
     monkeypatch.setenv("ARMCAL_COMPILE", "now")
@@ -177,7 +184,7 @@ def test_a_killed_builder_leaves_no_library_and_the_next_run_builds_it(private, 
 
 def _process_holding(argument: str) -> int:
     """The id of this user's process whose command line has ``argument`` (the builder of one build folder)."""
-    deadline = time.perf_counter() + 10
+    deadline = time.perf_counter() + HANG
     while time.perf_counter() < deadline:
         for entry in os.listdir("/proc"):
             if entry.isdigit():

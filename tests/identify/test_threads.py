@@ -84,9 +84,9 @@ def test_a_forked_child_evaluates_with_threads_of_its_own(workers):
     parent, child = multiprocessing.get_context("fork").Pipe()
     process = multiprocessing.get_context("fork").Process(target=_in_child, args=(child,), daemon=True)
     process.start()
-    assert parent.poll(30), "the forked child did not answer"
+    assert parent.poll(60), "the forked child did not answer"
     assert parent.recv() == [4, 9]
-    process.join(10)
+    process.join(60)
 
 
 def test_each_inside_an_item_runs_there_and_does_not_wait_for_the_pool(workers):

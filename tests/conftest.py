@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import armcal  # noqa: F401 - before numpy, as the CLI: its one-thread BLAS settings hold here as in the workers it spawns
 import numpy as np
 import pytest
 

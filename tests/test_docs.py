@@ -4,7 +4,8 @@ A yaml block opened with ```yaml file=PATH is also written to PATH, for the bloc
 
 The blocks run in a scratch copy of the project (examples/, specs/, docs/; ../shared beside it
 when it exists), with the project's armcal first on PATH. A page that needs the public UR10
-data says `<!-- needs: shared -->` and is skipped without it.
+data says `<!-- needs: shared -->` and is skipped without it. A block that only runs a tutorial's
+script is left to that script's own test (tests/test_tutorial_NAME.py), which runs it once.
 """
 
 import os
@@ -23,6 +24,14 @@ from armcal.spec import load_spec
 DOCS = sorted((ROOT / "docs").rglob("*.md"))
 BLOCK = re.compile(r"^```(\w*)([^\n]*)\n(.*?)^```", re.M | re.S)
 LANGUAGES = {"sh", "python", "yaml", "text"}
+TUTORIAL_SCRIPT = re.compile(r"python docs/tutorials/(\w+)\.py\s*")  # a block that runs a tutorial's script and nothing else
+
+
+def tested_on_its_own(code: str) -> bool:
+    """A block that runs a tutorial script which tests/test_tutorial_<name>.py runs itself, checking its exit and numbers."""
+    match = TUTORIAL_SCRIPT.fullmatch(code)
+    own = ROOT / "tests" / f"test_tutorial_{match.group(1)}.py" if match else None
+    return own is not None and own.exists() and f'ROOT / "docs" / "tutorials" / "{match.group(1)}.py"' in own.read_text()
 
 
 def code_blocks(page: Path) -> list[tuple[str, str, str, int]]:
@@ -60,6 +69,8 @@ def test_code_blocks_run(page, scratch, monkeypatch):
     namespace: dict = {"__name__": "__docs__"}
     for language, target, code, line in code_blocks(page):
         where = f"{page.relative_to(ROOT)}:{line}"
+        if language == "sh" and tested_on_its_own(code):
+            continue  # not twice: its own test runs the script once and checks more than its exit
         if language == "sh":
             result = subprocess.run(["bash", "-euo", "pipefail", "-c", code], cwd=scratch, env=environment, capture_output=True, text=True, timeout=600)
             assert result.returncode == 0, f"{where}: exit {result.returncode}\n{result.stdout[-2000:]}\n{result.stderr[-2000:]}"

@@ -152,12 +152,13 @@ def test_lm_stops_at_the_minimum_on_a_scale_free_test_and_not_at_the_limit():
 
 
 def test_lm_stopping_does_not_depend_on_the_noise_scale():
-    """Residuals of 1e-30 or 1e30 sigmas: the same iterations to the same minimum (the tests are scale-free)."""
+    """Residuals of 2^-100 or 2^100 sigmas: the same iterations to the same minimum (the tests are scale-free). Powers
+    of two scale every number exactly, so no stopping test meets other last bits than at scale 1."""
     rng = np.random.default_rng(4)
     x = np.linspace(0, 3, 40)
     y = 2.5 * np.exp(-1.3 * x) + 0.01 * rng.normal(size=len(x))
     runs = []
-    for scale in (1e-30, 1.0, 1e30):
+    for scale in (2.0**-100, 1.0, 2.0**100):
         def residuals(p, scale=scale):
             e = np.exp(-p[1] * x)
             return scale * (p[0] * e - y), scale * np.column_stack([e, -p[0] * x * e])

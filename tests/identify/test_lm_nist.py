@@ -154,7 +154,9 @@ def test_the_analytic_jacobian_matches_central_differences(name):
 def cases():
     for name in sorted(MODELS):
         for start in (1, 2):
-            marks = [pytest.mark.xfail(strict=True, reason=FAILS[(name, start)])] if (name, start) in FAILS else []
+            # not strict: these stop 0.4-0.9 digits short of DIGITS, and where FTOL stops the path depends on the last
+            # bits, so another processor may land past the line; that is no failure
+            marks = [pytest.mark.xfail(strict=False, reason=FAILS[(name, start)])] if (name, start) in FAILS else []
             yield pytest.param(name, start, marks=marks, id=f"{name}-start{start}")
 
 

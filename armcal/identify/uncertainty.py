@@ -1,7 +1,11 @@
 """Uncertainty of the identified parameters and a check of the noise model.
 
 With residuals weighted by the device's noise sigma, the covariance of the
-base parameters is (J^T J)^-1 at the solution. chi^2 = sum r^2 is compared with
+base parameters is (J^T J)^-1 at the solution, computed from the singular values
+of J (or of its triangular factor R, R^T R = J^T J), never by inverting J^T J: with
+J = U S V^T, C = W W^T for W = V S^-1, so a condition number of J is not squared, and
+the correlations (rows of W normalised, then their inner products) lie within
+[-1, 1] by construction, up to one rounding that is clipped. chi^2 = sum r^2 is compared with
 its distribution on M - p degrees of freedom: if the residuals are larger than
 the noise model allows (p-value below 1 %), the covariance is scaled by
 chi^2 / dof so the uncertainties stay honest, and the report says so; if they
@@ -38,14 +42,13 @@ def estimate(J: np.ndarray, r: np.ndarray, names: list[str]) -> Uncertainty:
     chi2 = float(r @ r)
     dof = max(len(r) - J.shape[1], 1)
     p_value = float(chdtrc(dof, chi2))
-    covariance = np.linalg.pinv(J.T @ J)
     scaled = p_value < NOISE_CHECK_LEVEL and chi2 > dof
     verdict = "residuals_too_large" if scaled else "residuals_too_small" if chdtr(dof, chi2) < NOISE_CHECK_LEVEL else "consistent"
-    if scaled:
-        covariance *= chi2 / dof
-    std = np.sqrt(np.maximum(np.diag(covariance), 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        correlation = covariance / np.outer(std, std)
+    W = _root(J) * (np.sqrt(chi2 / dof) if scaled else 1.0)
+    covariance = W @ W.T
+    std = np.linalg.norm(W, axis=1)
+    unit = W / np.where(std > 0, std, 1.0)[:, None]
+    correlation = np.clip(unit @ unit.T, -1.0, 1.0)
     pairs = [
         (names[i], names[j], float(correlation[i, j]))
         for i in range(len(names))
@@ -53,6 +56,13 @@ def estimate(J: np.ndarray, r: np.ndarray, names: list[str]) -> Uncertainty:
         if abs(correlation[i, j]) >= CORRELATION_REPORTED
     ]
     return Uncertainty(covariance, std, chi2, dof, p_value, scaled, verdict, tuple(pairs))
+
+
+def _root(J: np.ndarray) -> np.ndarray:
+    """W (p, k) with W W^T = pinv(J^T J): V S^-1 over the singular values above numpy's pinv cutoff for J."""
+    _, singular, Vt = np.linalg.svd(J, full_matrices=False)
+    kept = singular > np.finfo(float).eps * max(J.shape) * (singular[0] if len(singular) else 0.0)
+    return Vt[kept].T / singular[kept]
 
 
 def residual_stats(values: np.ndarray) -> dict:

@@ -7,8 +7,10 @@ readings poorly. Two reasons can be told apart with what the run has:
   parameters poorly determined (a flat direction of the base Jacobian), so the
   prediction at held-out poses carries the covariance C of the base parameters,
   J_v C J_v' (the linearised propagation behind Stone's 7.4 spreads); the
-  weighted held-out residuals are expected with covariance S = s^2 I + J_v C J_v',
-  s^2 the noise's (1, or chi2/dof where the noise check scaled C);
+  weighted held-out residuals are expected with covariance S = I + J_v C J_v': the
+  residuals are weighted by the noise that is known (the declared sigmas, or those
+  estimated from the data where the spec says auto), never by a noise scaled by the
+  fit's own chi2, so "noise sigmas" are those sigmas;
 - something the calibration data do not contain: the held-out residuals exceed even
   that expectation (r' S^-1 r, chi2 with n degrees of freedom on the n held-out
   readings, tested at NOISE_CHECK_LEVEL). The parameters' error is one draw shared by
@@ -44,15 +46,14 @@ def held_out_check(calibration: Problem, validation: Problem | None, result: Fit
     if not len(r):
         return None
     uncertainty = result.uncertainty
-    noise = uncertainty.chi2 / uncertainty.dof if uncertainty.scaled and uncertainty.dof > 0 else 1.0
     A = J[:, result.base]
     propagated = np.einsum("ij,jk,ik->i", A, uncertainty.covariance, A)
-    expected = noise + propagated
-    chi2 = _chi2(r, A, uncertainty.covariance, noise)
+    expected = 1.0 + propagated  # noise sigmas squared (module docstring)
+    chi2 = _chi2(r, A, uncertainty.covariance)
     dof = len(r)
     p_value = float(chdtrc(dof, chi2))
     share = float(propagated.sum() / expected.sum())
-    multiple = float(np.sqrt(np.mean(r**2) / noise))
+    multiple = float(np.sqrt(np.mean(r**2)))
     only_held_out = _only_held_out(calibration, validation, J, theta)
     if p_value < NOISE_CHECK_LEVEL:
         verdict = "beyond_prediction"
@@ -65,21 +66,21 @@ def held_out_check(calibration: Problem, validation: Problem | None, result: Fit
         "dof": dof,
         "p_value": p_value,
         "rms_over_noise": multiple,
-        "expected_rms_over_noise": float(np.sqrt(np.mean(expected) / noise)),
+        "expected_rms_over_noise": float(np.sqrt(np.mean(expected))),
         "parameter_share": share,
         "held_out_only": only_held_out,
         "verdict": verdict,
     }
 
 
-def _chi2(r: np.ndarray, A: np.ndarray, covariance: np.ndarray, noise: float) -> float:
-    """r' S^-1 r with S = noise I + A C A' (n x n, never formed): C = V L V', B = A V L^1/2, and by Woodbury
-    S^-1 = (I - B (noise I + B'B)^-1 B') / noise, a p x p solve for p base parameters."""
+def _chi2(r: np.ndarray, A: np.ndarray, covariance: np.ndarray) -> float:
+    """r' S^-1 r with S = I + A C A' (n x n, never formed): C = V L V', B = A V L^1/2, and by Woodbury
+    S^-1 = I - B (I + B'B)^-1 B', a p x p solve for p base parameters."""
     values, vectors = np.linalg.eigh((covariance + covariance.T) / 2)
     B = A @ (vectors * np.sqrt(np.clip(values, 0.0, None)))
     Br = B.T @ r
-    inner = np.linalg.solve(noise * np.eye(B.shape[1]) + B.T @ B, Br)
-    return float((r @ r - Br @ inner) / noise)
+    inner = np.linalg.solve(np.eye(B.shape[1]) + B.T @ B, Br)
+    return float(r @ r - Br @ inner)
 
 
 def _only_held_out(calibration: Problem, validation: Problem, J: np.ndarray, theta: np.ndarray) -> list[str]:

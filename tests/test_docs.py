@@ -27,7 +27,7 @@ LANGUAGES = {"sh", "python", "yaml", "text"}
 TUTORIAL_SCRIPT = re.compile(r"python docs/tutorials/(\w+)\.py\s*")  # a block that runs a tutorial's script and nothing else
 
 
-def tested_on_its_own(code: str) -> bool:
+def run_by_its_own_test(code: str) -> bool:
     """A block that runs a tutorial script which tests/test_tutorial_<name>.py runs itself, checking its exit and numbers."""
     match = TUTORIAL_SCRIPT.fullmatch(code)
     own = ROOT / "tests" / f"test_tutorial_{match.group(1)}.py" if match else None
@@ -69,7 +69,7 @@ def test_code_blocks_run(page, scratch, monkeypatch):
     namespace: dict = {"__name__": "__docs__"}
     for language, target, code, line in code_blocks(page):
         where = f"{page.relative_to(ROOT)}:{line}"
-        if language == "sh" and tested_on_its_own(code):
+        if language == "sh" and run_by_its_own_test(code):
             continue  # not twice: its own test runs the script once and checks more than its exit
         if language == "sh":
             result = subprocess.run(["bash", "-euo", "pipefail", "-c", code], cwd=scratch, env=environment, capture_output=True, text=True, timeout=600)

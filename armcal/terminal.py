@@ -123,13 +123,38 @@ def noise_lines(noise) -> list[str]:
     return lines
 
 
+def status_words(r) -> str:
+    """'converged', or 'converged; implausible values' where an identified robot value is beyond its tolerance."""
+    return r.status + ("; implausible values" if r.plausibility is not None and r.plausibility.implausible else "")
+
+
+IMPLAUSIBLE_SHOWN = 10  # values listed on the terminal; results.json and the certificate hold them all
+
+
+def implausible_lines(r) -> list[str]:
+    """One line per identified robot value beyond its tolerance (results/plausibility.py)."""
+    if r.plausibility is None or not r.plausibility.implausible:
+        return []
+    p = r.plausibility
+    where = "robot.tolerance" if p.from_spec else "the default; set robot.tolerance"
+    lines = [f"  implausible: {len(p.implausible)} identified robot value(s) beyond {p.length:g} {p.length_unit} / "
+             f"{p.angle:g} {p.angle_unit} of nominal ({where}): a flat direction or a wrong nominal chose them, not the data"]
+    for v in p.implausible[:IMPLAUSIBLE_SHOWN]:
+        std = f", std {v.std:.3g} {v.unit}" if v.std is not None else ""
+        lines.append(f"    {v.name}: {v.value:.6g} {v.unit}, {v.deviation:+.4g} {v.unit} from nominal {v.nominal:.6g}{std}")
+    if len(p.implausible) > IMPLAUSIBLE_SHOWN:
+        lines.append(f"    and {len(p.implausible) - IMPLAUSIBLE_SHOWN} more (results.json: plausibility)")
+    return lines
+
+
 def run_summary(outcome) -> str:
     """What `armcal run` prints: status, identifiability, residuals before/after, files written."""
     r = outcome.results
     unit = r.device.unit
     cal = r.residuals.calibration
     lines = [
-        f"{r.robot.name} ({r.robot.serial}): {r.status} ({r.solver.reason}, {r.solver.iterations} iterations)",
+        f"{r.robot.name} ({r.robot.serial}): {status_words(r)} ({r.solver.reason}, {r.solver.iterations} iterations)",
+        *implausible_lines(r),
         f"  identified {r.identifiability.rank} of {r.identifiability.n_parameters} parameters, "
         f"condition number {r.identifiability.condition_number:.3g}",
         *(table_lines(r.identifiability.breakdown) if r.identifiability.breakdown else []),

@@ -308,6 +308,19 @@ def _change(change: dict) -> str:
     return f"{change['name']} {number(change['old'])} -> {number(change['new'])} {change['unit']} ({z})"
 
 
+def _implausible(results: dict) -> list[str]:
+    """The identified robot values beyond their tolerance, one sentence each (results/plausibility.py)."""
+    p = results.get("plausibility")
+    if not p:
+        return []
+    source = "robot.tolerance" if p["from_spec"] else "default tolerance, the spec gives none"
+    return [
+        f"{v['name']} = {v['value']:.6g} {v['unit']}: {v['deviation']:+.4g} {v['unit']} from nominal {v['nominal']:.6g}, beyond "
+        f"{v['tolerance']:g} {v['unit']} ({source})" + (f"; std {v['std']:.3g} {v['unit']}" if v["std"] is not None else "")
+        for v in p["implausible"]
+    ]
+
+
 def _history(results: dict) -> list[dict]:
     """Earlier calibrations of this robot, oldest first, with the parameters changed significantly since."""
     rows = []
@@ -356,7 +369,8 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
             "sha256": spec["sha256"],
             "git": (f"{git['commit']}" + (" (the spec file differs from this commit)" if git["dirty"] else " (clean)")) if git else "not in a git repository",
         },
-        "status": results["status"],
+        "status": results["status"] + ("; implausible values" if _implausible(results) else ""),
+        "implausible": _implausible(results),
         "run_id": results.get("run_id") or "not recorded",
         "solver": f"{results['solver']['method']}, {results['solver']['reason']}, {results['solver']['iterations']} iterations",
         "identifiability": {

@@ -9,6 +9,7 @@ import numpy as np
 from armcal import __version__
 from armcal.results.breakdown import after_fit
 from armcal.results.campaign_block import report_fields
+from armcal.results.plausibility import plausibility
 from armcal.results.schema import Results
 from armcal.results.provenance import git_info, utc_now
 from armcal.spec import LoadedSpec
@@ -43,6 +44,7 @@ def build_results(loaded: LoadedSpec, figures: dict, **run) -> Results:
     stages = dict(figures)
     fitted = stages.pop("parameters")
     stages["parameters"] = parameter_rows(loaded, fitted["entries"], fitted["values"], fitted["std"], fitted["identified"])
+    stages["plausibility"] = plausibility(spec, fitted["entries"], fitted["values"], fitted["std"], fitted["identified"])
     stages["identifiability"] = {**stages["identifiability"], "breakdown": after_fit(fitted["entries"], fitted["base"], fitted["fixed"])}
     return Results.model_validate(
         {

@@ -79,6 +79,29 @@ class ParameterResult(_Frozen):
     free: bool
 
 
+class ImplausibleValue(_Frozen):
+    """An identified robot value farther from its nominal value than the tolerance of its kind (spec units)."""
+
+    name: str
+    unit: str
+    nominal: float
+    value: float
+    deviation: float  # value - nominal (angles the short way round)
+    tolerance: float
+    std: float | None
+
+
+class Plausibility(_Frozen):
+    """Identified robot values against their nominal values (results/plausibility.py)."""
+
+    length: float  # tolerance, in length_unit
+    length_unit: str
+    angle: float  # tolerance, in angle_unit
+    angle_unit: str
+    from_spec: bool  # false: the defaults (10 mm, 2 deg), the spec gave no robot.tolerance
+    implausible: list[ImplausibleValue]
+
+
 class Stats(_Frozen):
     n: int
     rms: float
@@ -350,3 +373,4 @@ class Results(_Frozen):
     history: list[HistoryEntry] = []  # earlier calibrations given with --history
     warnings: list[str] = []  # what the user should know about the inputs (e.g. a simulated-looking t column in real data)
     held_out_check: HeldOutCheck | None = None  # null: no held-out data
+    plausibility: Plausibility | None = None  # null: results of an older armcal

@@ -10,12 +10,14 @@ Conventions (one per kinematics/conventions.py function):
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import Field, ValidationInfo, WithJsonSchema, field_validator
 
 from armcal import units
 from armcal.spec.base import (
+    Angle,
     AngleParam,
     Length,
     LengthParam,
@@ -177,6 +179,13 @@ class SixParameterLink(Offset):
     gamma: AngleParam = Field(fixed(0.0), description="third ZYX Euler angle: rotation about the new x, Rot(x, gamma) in (3); the next joint turns about the resulting z")
 
 
+class Tolerance(SpecModel):
+    """How far an identified robot value may lie from its nominal value and still be plausible."""
+
+    length: Length = Field(10.0, gt=0.0, description="plausible deviation of an identified length from its nominal value (default 10 mm)")
+    angle: Angle = Field(math.radians(2.0), gt=0.0, description="plausible deviation of an identified angle from its nominal value (default 2 deg)")
+
+
 class RobotBase(SpecModel):
     """Identity, units, base and tool transforms and targets common to all conventions."""
 
@@ -187,6 +196,11 @@ class RobotBase(SpecModel):
     base: Pose = Field(Pose(), description="robot base frame in the mounting (world) frame; fixed at 0 unless given")
     tool: Pose = Field(Pose(), description="tool frame on the last link; fixed at 0 unless given")
     targets: dict[str, Target] = Field({}, description="named points or frames on links: sparkers, spheres, reflectors")
+    tolerance: Tolerance | None = Field(
+        None,
+        description="plausible deviations of identified values from nominal (length, angle); a value beyond them is "
+        "reported as implausible. Default when not given: 10 mm and 2 deg",
+    )
     masses: list[LinkMass] = Field(
         [],
         description="the robot's mass layout (the maker's data): the gravity torque of compliance where an effect names "

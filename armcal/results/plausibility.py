@@ -1,0 +1,59 @@
+"""Is every identified robot value plausible? Its deviation from nominal against a tolerance per kind (issue 29).
+
+A fit can end `converged` with a length 1.8 m from its drawing value and a std of 0.05 mm: the data determined a
+combination, the rounding or a flat direction chose the rest. Every identified robot value (base, links, joints,
+tool, targets: kinematics/params.parameter_set) is compared with its nominal value: a length beyond
+`robot.tolerance.length` (default 10 mm) or an angle beyond `robot.tolerance.angle` (default 2 deg, the difference
+taken the short way round) is implausible, and the terminal, results.json and the certificate say so. Encoder
+scales (kind 1) and the instrument's parameters are not judged.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from armcal.kinematics.params import parameter_set
+from armcal.spec.document import Spec
+from armcal.spec.robot import Tolerance
+from armcal.units import from_internal
+
+JUDGED = ("length", "angle")
+
+
+def plausibility(spec: Spec, entries, values: np.ndarray, std: np.ndarray, identified: set[str]) -> dict:
+    """results.json's `plausibility`: the tolerances in the spec's units (and whether the spec gave them) and the
+    identified robot values beyond them."""
+    tolerance = spec.robot.tolerance or Tolerance()
+    limit = {"length": tolerance.length, "angle": tolerance.angle}
+    robot = set(parameter_set(spec.robot).names)
+    unit = {kind: spec.robot.units.of(kind) for kind in JUDGED}
+    shown = lambda value, kind: from_internal(float(value), kind, unit[kind])  # noqa: E731
+    implausible = []
+    for entry, value, sd in zip(entries, values, std):
+        if entry.name not in identified or entry.name not in robot or entry.kind not in JUDGED:
+            continue
+        deviation = float(value - entry.nominal)
+        if entry.kind == "angle":
+            deviation = math.remainder(deviation, 2 * math.pi)
+        if abs(deviation) > limit[entry.kind]:
+            implausible.append(
+                {
+                    "name": entry.name,
+                    "unit": unit[entry.kind],
+                    "nominal": shown(entry.nominal, entry.kind),
+                    "value": shown(value, entry.kind),
+                    "deviation": shown(deviation, entry.kind),
+                    "tolerance": shown(limit[entry.kind], entry.kind),
+                    "std": None if math.isnan(sd) else shown(sd, entry.kind),
+                }
+            )
+    return {
+        "length": shown(limit["length"], "length"),
+        "length_unit": unit["length"],
+        "angle": shown(limit["angle"], "angle"),
+        "angle_unit": unit["angle"],
+        "from_spec": spec.robot.tolerance is not None,
+        "implausible": implausible,
+    }

@@ -132,18 +132,39 @@ def test_two_concurrent_runs_into_one_folder(workspace):
     one_complete_set(out)
 
 
+def _kill_when(job: subprocess.Popen, moment) -> None:
+    """SIGKILL ``job`` as soon as ``moment()`` holds (polled every 5 ms), or once it has ended; 60 s at most."""
+    deadline = time.perf_counter() + 60
+    while job.poll() is None and time.perf_counter() < deadline:
+        try:
+            if moment():
+                break
+        except (OSError, ValueError, AssertionError):  # a set being exchanged under the poll: not yet
+            pass
+        time.sleep(0.005)
+    job.send_signal(signal.SIGKILL)
+    job.wait()
+
+
 def test_a_run_killed_at_any_moment_leaves_one_complete_set(workspace):
     out = workspace / "out"
     assert armcal("run", workspace / "spec.yaml", "--out", out, "--no-pdf").returncode == 0
     one_complete_set(out)
     other_input(workspace)
-    for delay in (0.5, 1.5, 2.5, 3.0, 3.5, 4.0):
+    staging = lambda: [p for p in workspace.glob(".out.new-*") if p.is_dir() and p not in left]  # noqa: E731 - this run's
+    moments = (  # by what the run has done, not by a clock: a loaded machine reaches each later, not never
+        lambda: (workspace / ".out.lock").exists(),  # started, the folder locked (a killed run leaves the file: first)
+        lambda: bool(staging()),  # writing its set beside the folder
+        lambda: any(len(list(p.iterdir())) >= 3 for p in staging()),  # half of it written
+        lambda: one_complete_set(out) != before,  # its set just exchanged in
+    )
+    for moment in moments:
+        before, left = one_complete_set(out), set(workspace.glob(".out.new-*"))  # what killed runs left stays out
         job = subprocess.Popen([sys.executable, "-m", "armcal", "run", str(workspace / "spec.yaml"), "--out", str(out), "--no-pdf", "--force"],
                                cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(delay)
-        job.send_signal(signal.SIGKILL)
-        job.wait()
+        _kill_when(job, moment)
         assert one_complete_set(out)  # the previous set or the new one, whole
+        other_input(workspace)
     assert armcal("run", workspace / "spec.yaml", "--out", out, "--no-pdf", "--force").returncode == 0
     one_complete_set(out)
     assert not [p for p in workspace.iterdir() if p.name.startswith(".out.")]  # no half-written set, no lock left

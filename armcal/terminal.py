@@ -124,8 +124,10 @@ def noise_lines(noise) -> list[str]:
 
 
 def status_words(r) -> str:
-    """'converged', or 'converged; implausible values' where an identified robot value is beyond its tolerance."""
-    return r.status + ("; implausible values" if r.plausibility is not None and r.plausibility.implausible else "")
+    """'converged', or 'converged; implausible values' where an identified robot value is beyond its tolerance (a fit
+    that did not converge says that alone: its values are no estimate to judge; the list still follows)."""
+    flagged = r.status == "converged" and r.plausibility is not None and bool(r.plausibility.implausible)
+    return r.status + ("; implausible values" if flagged else "")
 
 
 IMPLAUSIBLE_SHOWN = 10  # values listed on the terminal; results.json and the certificate hold them all

@@ -369,7 +369,7 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
             "sha256": spec["sha256"],
             "git": (f"{git['commit']}" + (" (the spec file differs from this commit)" if git["dirty"] else " (clean)")) if git else "not in a git repository",
         },
-        "status": results["status"] + ("; implausible values" if _implausible(results) else ""),
+        "status": results["status"] + ("; implausible values" if results["status"] == "converged" and _implausible(results) else ""),
         "implausible": _implausible(results),
         "run_id": results.get("run_id") or "not recorded",
         "solver": f"{results['solver']['method']}, {results['solver']['reason']}, {results['solver']['iterations']} iterations",

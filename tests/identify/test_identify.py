@@ -133,6 +133,7 @@ def test_compiled_functions_are_cached_and_equal_the_interpreted_ones(tmp_path, 
     rounding: the library is built for this processor (fused multiply-add), so predicted readings may differ in their
     last bits (an ulp of an angle over a sigma of 1e-5 rad is 1e-11 in the weighted residual)."""
     monkeypatch.setenv("ARMCAL_CACHE", str(tmp_path))
+    monkeypatch.setenv("ARMCAL_COMPILE", "now")  # a test of the compiled library, whatever mode the suite runs in
     s = setup(SPECS / "puma560_theodolite.yaml")
     data = measure(s.kinematics, s.device, s.plans[0], None, None)
     first = build_problem(s.kinematics, s.device, data)

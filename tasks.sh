@@ -26,7 +26,7 @@ system_deps() {
         "$PY" -c "import ctypes.util,sys; sys.exit(ctypes.util.find_library('${library%%:*}') is None)" \
             || packages+=("${library#*:}")
     done
-    fc-list 2>/dev/null | grep -q . || packages+=(fontconfig fonts-dejavu-core)
+    [ "$(fc-list 2>/dev/null | wc -l)" -gt 0 ] || packages+=(fontconfig fonts-dejavu-core)
     if [ ${#packages[@]} -gt 0 ]; then
         echo "installing system libraries for WeasyPrint: ${packages[*]}"
         apt_install "${packages[@]}"
@@ -57,7 +57,8 @@ lock() {
         echo "# Exact versions that tasks.sh installs (pip and setuptools included), written by 'bash tasks.sh lock'"
         echo "# on $(date -u +%Y-%m-%d) with $("$scratch/venv/bin/python" --version) on $(uname -m); see docs/development.md."
         "$scratch/venv/bin/python" tools/write_lock.py
-    } > requirements.lock
+    } > "$scratch/requirements.lock"
+    mv "$scratch/requirements.lock" requirements.lock  # whole or not at all
     rm -rf "$scratch"
 }
 

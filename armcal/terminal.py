@@ -12,6 +12,7 @@ from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.parallel import parallel_axes
 from armcal.kinematics.transforms import pose_from_matrix
 from armcal.results.breakdown import before_data, table_lines
+from armcal.results.plausibility import WHY, status_words
 from armcal.results.schema import TASK_TITLES
 from armcal.spec import LoadedSpec
 from armcal.spec.robot import joint_kind
@@ -123,13 +124,6 @@ def noise_lines(noise) -> list[str]:
     return lines
 
 
-def status_words(r) -> str:
-    """'converged', or 'converged; implausible values' where an identified robot value is beyond its tolerance (a fit
-    that did not converge says that alone: its values are no estimate to judge; the list still follows)."""
-    flagged = r.status == "converged" and r.plausibility is not None and bool(r.plausibility.implausible)
-    return r.status + ("; implausible values" if flagged else "")
-
-
 IMPLAUSIBLE_SHOWN = 10  # values listed on the terminal; results.json and the certificate hold them all
 
 
@@ -140,10 +134,10 @@ def implausible_lines(r) -> list[str]:
     p = r.plausibility
     where = "robot.tolerance" if p.from_spec else "the default; set robot.tolerance"
     lines = [f"  implausible: {len(p.implausible)} identified robot value(s) beyond {p.length:g} {p.length_unit} / "
-             f"{p.angle:g} {p.angle_unit} of nominal ({where}): a flat direction or a wrong nominal chose them, not the data"]
+             f"{p.angle:g} {p.angle_unit} of nominal ({where})"]
     for v in p.implausible[:IMPLAUSIBLE_SHOWN]:
         std = f", std {v.std:.3g} {v.unit}" if v.std is not None else ""
-        lines.append(f"    {v.name}: {v.value:.6g} {v.unit}, {v.deviation:+.4g} {v.unit} from nominal {v.nominal:.6g}{std}")
+        lines.append(f"    {v.name}: {v.value:.6g} {v.unit}, {v.deviation:+.4g} {v.unit} from nominal {v.nominal:.6g}{std}: {WHY[v.why]}")
     if len(p.implausible) > IMPLAUSIBLE_SHOWN:
         lines.append(f"    and {len(p.implausible) - IMPLAUSIBLE_SHOWN} more (results.json: plausibility)")
     return lines
@@ -155,7 +149,7 @@ def run_summary(outcome) -> str:
     unit = r.device.unit
     cal = r.residuals.calibration
     lines = [
-        f"{r.robot.name} ({r.robot.serial}): {status_words(r)} ({r.solver.reason}, {r.solver.iterations} iterations)",
+        f"{r.robot.name} ({r.robot.serial}): {status_words(r.status, r.plausibility)} ({r.solver.reason}, {r.solver.iterations} iterations)",
         *implausible_lines(r),
         f"  identified {r.identifiability.rank} of {r.identifiability.n_parameters} parameters, "
         f"condition number {r.identifiability.condition_number:.3g}",
@@ -348,6 +342,9 @@ def held_out_lines(r) -> list[str]:
                       f"determined{along}. Add poses that move them (armcal plan SPEC --extend CALIBRATION.csv), or hold values "
                       "known from a measurement (vary: false) [procedure, robot.targets, device]"]
     causes = ["the instrument moved between the two data sets (data.instrument_moved: true)"]
+    if r.noise_check.verdict == "residuals_too_large":  # the calibration data exceed the declared noise already
+        causes.insert(0, f"the declared noise is too small: the calibration residuals exceed it too (noise check chi2/dof = "
+                         f"{r.noise_check.chi2 / r.noise_check.dof:.3g}) [device.noise]")
     if check.held_out_only:
         causes.append(f"a value only the held-out data use, held at its spec value: {', '.join(check.held_out_only)} (its spec key)")
     causes.append("an effect the calibration poses cannot see (held-out poses outside the calibrated region: procedure, validation)")

@@ -10,7 +10,10 @@ readings poorly. Two reasons can be told apart with what the run has:
   weighted held-out residuals are expected with covariance S = I + J_v C J_v': the
   residuals are weighted by the noise that is known (the declared sigmas, or those
   estimated from the data where the spec says auto), never by a noise scaled by the
-  fit's own chi2, so "noise sigmas" are those sigmas;
+  fit's own chi2, so "noise sigmas" are those sigmas (C itself is the reported one,
+  scaled by chi2/dof where the noise check found the residuals too large: then the
+  held-out data usually exceed the prediction too, and the terminal names the declared
+  noise first among the causes);
 - something the calibration data do not contain: the held-out residuals exceed even
   that expectation (r' S^-1 r, chi2 with n degrees of freedom on the n held-out
   readings, tested at NOISE_CHECK_LEVEL). The parameters' error is one draw shared by

@@ -59,7 +59,8 @@ def estimate(J: np.ndarray, r: np.ndarray, names: list[str]) -> Uncertainty:
 
 
 def _root(J: np.ndarray) -> np.ndarray:
-    """W (p, k) with W W^T = pinv(J^T J): V S^-1 over the singular values above numpy's pinv cutoff for J."""
+    """W (p, k) with W W^T = pinv(J^T J): V S^-1 over the singular values above eps x size x the largest (the
+    rank cutoff of numpy's matrix_rank; below it a direction is rounding, not data)."""
     _, singular, Vt = np.linalg.svd(J, full_matrices=False)
     kept = singular > np.finfo(float).eps * max(J.shape) * (singular[0] if len(singular) else 0.0)
     return Vt[kept].T / singular[kept]

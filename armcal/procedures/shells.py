@@ -30,7 +30,7 @@ DROP_REASONS = {
     "pivot out of reach": "device.pivots (move the chuck nearer the robot), device.length / procedure.radius",
     "beyond the arm's reach": "procedure.latitudes, device.pivots, device.length / procedure.radius",
     "no inverse kinematics": "the sphere's orientation there (robot.targets, its link), procedure.latitudes",
-    "joint limit": "robot.joints[].limits (the joint named), procedure.latitudes / longitudes",
+    "joint limit": "robot.joints[].limits (the joints named), procedure.latitudes / longitudes",
     "bar travel": "device.travel, device.length (the reading must stay within travel/2 of mid-travel)",
 }
 

@@ -7,6 +7,7 @@ import math
 
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.results.changes import ALPHA
+from armcal.results.plausibility import WHY, status_words
 from armcal.results.schema import TASK_TITLES
 from armcal.units import ANGLE_UNITS, factor
 
@@ -317,6 +318,7 @@ def _implausible(results: dict) -> list[str]:
     return [
         f"{v['name']} = {v['value']:.6g} {v['unit']}: {v['deviation']:+.4g} {v['unit']} from nominal {v['nominal']:.6g}, beyond "
         f"{v['tolerance']:g} {v['unit']} ({source})" + (f"; std {v['std']:.3g} {v['unit']}" if v["std"] is not None else "")
+        + f": {WHY[v['why']]}"
         for v in p["implausible"]
     ]
 
@@ -369,7 +371,7 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
             "sha256": spec["sha256"],
             "git": (f"{git['commit']}" + (" (the spec file differs from this commit)" if git["dirty"] else " (clean)")) if git else "not in a git repository",
         },
-        "status": results["status"] + ("; implausible values" if results["status"] == "converged" and _implausible(results) else ""),
+        "status": status_words(results["status"], results.get("plausibility")),
         "implausible": _implausible(results),
         "run_id": results.get("run_id") or "not recorded",
         "solver": f"{results['solver']['method']}, {results['solver']['reason']}, {results['solver']['iterations']} iterations",

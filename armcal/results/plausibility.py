@@ -4,8 +4,10 @@ A fit can end `converged` with a length 1.8 m from its drawing value and a std o
 combination, the rounding or a flat direction chose the rest. Every identified robot value (base, links, joints,
 tool, targets: kinematics/params.parameter_set) is compared with its nominal value: a length beyond
 `robot.tolerance.length` (default 10 mm) or an angle beyond `robot.tolerance.angle` (default 2 deg, the difference
-taken the short way round) is implausible, and the terminal, results.json and the certificate say so. Encoder
-scales (kind 1) and the instrument's parameters are not judged.
+taken the short way round) is implausible, and the terminal, results.json and the certificate say so, with why:
+a value many of its stds from nominal was put there by the data (check the nominal value: the drawing, the
+robot library, an earlier calibration); one whose std is itself of the tolerance's size was chosen by a flat
+direction. Encoder scales (kind 1) and the instrument's parameters are not judged.
 """
 
 from __future__ import annotations
@@ -14,12 +16,24 @@ import math
 
 import numpy as np
 
-from armcal.kinematics.params import parameter_set
 from armcal.spec.document import Spec
 from armcal.spec.robot import Tolerance
 from armcal.units import from_internal
 
 JUDGED = ("length", "angle")
+ROBOT_ROLES = ("chain", "target")  # kinematics/params: the robot's own values, not the instrument's
+DETERMINED = 5.0  # deviation over std beyond which the data, not a flat direction, put the value there
+WHY = {
+    "nominal": "the data put it there (many stds from nominal): check the nominal value",
+    "undetermined": "poorly determined: a flat direction chose it, not the data",
+}
+
+
+def status_words(status: str, plausibility) -> str:
+    """'converged', or 'converged; implausible values' (a fit that did not converge says that alone: its values are
+    no estimate to judge). ``plausibility``: results.json's block as a model or a dict, or None."""
+    found = plausibility.get("implausible") if isinstance(plausibility, dict) else getattr(plausibility, "implausible", None)
+    return status + ("; implausible values" if status == "converged" and found else "")
 
 
 def plausibility(spec: Spec, entries, values: np.ndarray, std: np.ndarray, identified: set[str]) -> dict:
@@ -27,12 +41,11 @@ def plausibility(spec: Spec, entries, values: np.ndarray, std: np.ndarray, ident
     identified robot values beyond them."""
     tolerance = spec.robot.tolerance or Tolerance()
     limit = {"length": tolerance.length, "angle": tolerance.angle}
-    robot = set(parameter_set(spec.robot).names)
     unit = {kind: spec.robot.units.of(kind) for kind in JUDGED}
     shown = lambda value, kind: from_internal(float(value), kind, unit[kind])  # noqa: E731
     implausible = []
     for entry, value, sd in zip(entries, values, std):
-        if entry.name not in identified or entry.name not in robot or entry.kind not in JUDGED:
+        if entry.name not in identified or entry.role not in ROBOT_ROLES or entry.kind not in JUDGED:
             continue
         deviation = float(value - entry.nominal)
         if entry.kind == "angle":
@@ -47,6 +60,7 @@ def plausibility(spec: Spec, entries, values: np.ndarray, std: np.ndarray, ident
                     "deviation": shown(deviation, entry.kind),
                     "tolerance": shown(limit[entry.kind], entry.kind),
                     "std": None if math.isnan(sd) else shown(sd, entry.kind),
+                    "why": "nominal" if not math.isnan(sd) and abs(deviation) > DETERMINED * sd else "undetermined",
                 }
             )
     return {

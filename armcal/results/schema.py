@@ -89,6 +89,7 @@ class ImplausibleValue(_Frozen):
     deviation: float  # value - nominal (angles the short way round)
     tolerance: float
     std: float | None
+    why: Literal["nominal", "undetermined"]  # many stds from nominal (the data put it there), or poorly determined
 
 
 class Plausibility(_Frozen):

@@ -10,7 +10,6 @@ Conventions (one per kinematics/conventions.py function):
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import Field, ValidationInfo, WithJsonSchema, field_validator
@@ -182,8 +181,8 @@ class SixParameterLink(Offset):
 class Tolerance(SpecModel):
     """How far an identified robot value may lie from its nominal value and still be plausible."""
 
-    length: Length = Field(10.0, gt=0.0, description="plausible deviation of an identified length from its nominal value (default 10 mm)")
-    angle: Angle = Field(math.radians(2.0), gt=0.0, description="plausible deviation of an identified angle from its nominal value (default 2 deg)")
+    length: Length = Field("10 mm", validate_default=True, gt=0.0, description="plausible deviation of an identified length from its nominal value")
+    angle: Angle = Field("2 deg", validate_default=True, gt=0.0, description="plausible deviation of an identified angle from its nominal value")
 
 
 class RobotBase(SpecModel):

@@ -81,3 +81,16 @@ def test_the_held_out_chi2_is_the_quadratic_form_of_the_full_covariance_and_chi2
     draws = np.array([_chi2(A @ (root @ rng.normal(size=p)) + rng.normal(size=n), A, C) for _ in range(4000)])
     assert draws.mean() == pytest.approx(n, abs=4 * np.sqrt(2 * n / 4000))
     assert draws.var() == pytest.approx(2 * n, rel=0.15)
+
+
+def test_a_declared_noise_too_small_is_named_first_when_the_held_out_data_exceed_the_prediction():
+    """The noise term is the declared noise, so residuals too large for it on the calibration data exceed the held-out
+    prediction too: the terminal then names the declared noise before the other causes."""
+    from types import SimpleNamespace
+
+    check = SimpleNamespace(verdict="beyond_prediction", rms_over_noise=3.1, expected_rms_over_noise=1.2, chi2=900.0, dof=100,
+                            p_value=1e-30, held_out_only=[], parameter_share=0.1)
+    for verdict, first in (("residuals_too_large", "the declared noise is too small"), ("consistent", "the instrument moved")):
+        r = SimpleNamespace(held_out_check=check, noise_check=SimpleNamespace(verdict=verdict, chi2=950.0, dof=100))
+        causes = held_out_lines(r)[1].split("likely causes: ")[1]
+        assert causes.startswith(first), causes

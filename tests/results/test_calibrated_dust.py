@@ -21,8 +21,10 @@ def test_rounding_dust_is_written_as_a_plain_zero(value):
 def test_a_computed_value_below_the_input_rules_is_written_as_zero_and_the_spec_loads(tmp_path):
     source = ROOT / "specs" / "puma560_dh.yaml"
     loaded = load_spec(source)
-    identified = {"j2.d": (3.1e-32, "length", False, None), "j3.d": (149.09 + 2 * DUST, "length", False, None)}
+    identified = {"j2.d": (3.1e-32, "length", False, None), "j3.d": (149.09 + 2 * DUST, "length", False, None),
+                  "j4.d": (2 * DUST, "length", False, None)}
     text = calibrated_yaml(loaded.text, loaded.spec, identified, source, tmp_path, "# test")
     again = spec_from_bytes(text.encode(), tmp_path / "calibrated.yaml").spec
     assert again.robot.joints[1].d.value == 0.0
     assert again.robot.joints[2].d.value == pytest.approx(149.09 + 2 * DUST, abs=1e-13)
+    assert again.robot.joints[3].d.value == pytest.approx(2 * DUST, rel=1e-12)  # above the dust: written as computed

@@ -34,8 +34,10 @@ def test_a_nominal_value_30_mm_off_is_said_on_the_terminal_in_results_and_on_the
     assert (p["length"], p["length_unit"], p["angle"], p["angle_unit"], p["from_spec"]) == (1.0, "cm", 2.0, "deg", False)
     flagged = {v["name"]: v for v in p["implausible"]}
     assert "L3.x" in flagged and flagged["L3.x"]["deviation"] == pytest.approx(-3.0, abs=0.05)
+    assert flagged["L3.x"]["why"] == "nominal" and flagged["L3.x"]["std"] < 0.05  # the data put it there
     assert results["status"] == "converged"  # the contract's status; the words add the finding
-    assert "converged; implausible values" in done.stdout and "L3.x: " in done.stdout and "set robot.tolerance" in done.stdout
+    assert "converged; implausible values" in done.stdout and "set robot.tolerance" in done.stdout
+    assert "L3.x: " in done.stdout and "check the nominal value" in done.stdout
     html = (tmp_path / "out" / "spec" / "certificate.html").read_text()
     assert "converged; implausible values" in html and "L3.x = " in html and "default tolerance, the spec gives none" in html
 
@@ -54,6 +56,11 @@ def test_a_tolerance_from_the_spec_is_used_and_said():
     flagged = {v["name"]: v for v in found["implausible"]}
     assert set(flagged) == {"L3.x", "j2.theta0"}
     assert flagged["j2.theta0"]["deviation"] == pytest.approx(2.5) and flagged["j2.theta0"]["std"] is None
+    assert flagged["j2.theta0"]["why"] == "undetermined"  # no std: nothing says the data determined it
+    std[names.index("L3.x")] = 10.0  # mm: a third of the deviation, the tolerance's size: a flat direction's doing
+    assert {v["name"]: v["why"] for v in plausibility(spec, entries, values, std, set(names))["implausible"]}["L3.x"] == "undetermined"
+    std[names.index("L3.x")] = 1.0  # 30 stds
+    assert {v["name"]: v["why"] for v in plausibility(spec, entries, values, std, set(names))["implausible"]}["L3.x"] == "nominal"
     assert flagged["L3.x"]["deviation"] == pytest.approx(3.0) and flagged["L3.x"]["tolerance"] == pytest.approx(1.0)  # cm
     assert plausibility(spec, entries, values, std, set(names) - {"L3.x", "j2.theta0"})["implausible"] == []  # held: not judged
     from armcal.spec.robot import Tolerance

@@ -1,5 +1,9 @@
 """Input files are read bounded, from ordinary files only; output files are written whole or not at all.
 
+An output is only ever a regular file: a device (/dev/null), a pipe or /proc/self/fd/1 in its place is refused, with
+--force too (os.replace would put a regular file where the device node was). A failure to write (a read-only file
+system, a full disk, a parent that is a file, a name too long) is one user error naming the file, never a traceback.
+
 A spec may name regular files anywhere it can read, except under /proc, /sys and
 /dev (pseudo-files that read as endless streams, devices or the process's own
 environment); each kind of input has a size limit (INPUT_LIMITS), checked before
@@ -63,12 +67,16 @@ def refuse_replacing(targets, inputs, force: bool) -> None:
     """Nothing existing is replaced without ``force``, and an input of the command never is."""
     sources = {Path(p).resolve() for p in inputs}
     for target in map(Path, targets):
-        if target.resolve() in sources:
-            raise UserError(f"{target} is an input of this command; it is never replaced (choose another --out)")
-        if target.is_dir():
-            raise UserError(f"{target} is a folder; give the name of the file to write")
-        if target.exists() and not force:
-            raise UserError(f"{target} exists; use --force to replace it")
+        try:
+            if target.resolve() in sources:
+                raise UserError(f"{target} is an input of this command; it is never replaced (choose another --out)")
+            if target.is_dir():
+                raise UserError(f"{target} is a folder; give the name of the file to write")
+            _refuse_special(target)
+            if target.exists() and not force:
+                raise UserError(f"{target} exists; use --force to replace it")
+        except OSError as exc:  # a name too long, a loop of links, a folder that may not be searched
+            raise UserError(f"cannot write {target}: {exc.strerror or exc}") from None
 
 
 def write_text_atomic(path: Path, text: str) -> None:
@@ -76,19 +84,36 @@ def write_text_atomic(path: Path, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
 
 
+def _refuse_special(path: Path) -> None:
+    """A user error when something other than a regular file (a device, a pipe, a socket) stands at ``path``."""
+    if path.exists() and not path.is_file() and not path.is_dir():
+        raise UserError(f"{path} is not a regular file (a device, a pipe or a socket); armcal writes only regular files, "
+                        "--force or not")
+
+
 def write_bytes_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` whole or not at all."""
+    """Write ``data`` to ``path`` whole or not at all, as a regular file (module docstring)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    temporary = None
     try:
+        _refuse_special(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
         with os.fdopen(handle, "wb") as stream:
             stream.write(data)
         os.chmod(temporary, 0o666 & ~current_umask())  # mkstemp makes 0600; give the usual mode
         os.replace(temporary, path)
+    except OSError as exc:
+        _remove(temporary)
+        raise UserError(f"cannot write {path}: {exc.strerror or exc}") from None
     except BaseException:
-        Path(temporary).unlink(missing_ok=True)
+        _remove(temporary)
         raise
+
+
+def _remove(temporary: str | None) -> None:
+    if temporary is not None:
+        Path(temporary).unlink(missing_ok=True)
 
 
 def current_umask() -> int:

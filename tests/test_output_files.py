@@ -1,0 +1,53 @@
+"""Every file a command writes with --out is a regular file written whole, and a failure to write is one user error
+(issue 30 class 1): a pipe or device in its place is refused with --force too and stays what it was; a parent that is
+a file, a name too long and a read-only folder end in one message naming the file, exit 1, no traceback."""
+
+import os
+import stat
+import subprocess
+
+import pytest
+from conftest import ROOT, armcal_cli
+
+URDF = ROOT / "tests" / "data" / "urdf" / "ros_industrial.urdf"
+
+
+def _writers(out):
+    """Commands that write one file at --out, with what they need."""
+    return {
+        "new": ("new", "--robot", "ur5e", "--device", "tracker", "--out", out, "--force"),
+        "import-urdf": ("import-urdf", URDF, "--base", "base_link", "--tip", "tool0", "--out", out, "--force"),
+    }
+
+
+@pytest.mark.parametrize("command", ["new", "import-urdf"])
+def test_a_pipe_at_out_is_refused_with_force_and_stays_a_pipe(tmp_path, command):
+    pipe = tmp_path / "pipe.yaml"
+    os.mkfifo(pipe)
+    done = armcal_cli(*_writers(pipe)[command])
+    assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
+    assert "is not a regular file" in done.stderr and str(pipe) in done.stderr
+    assert stat.S_ISFIFO(os.lstat(pipe).st_mode)
+
+
+@pytest.mark.parametrize("command", ["new", "import-urdf"])
+@pytest.mark.parametrize("where", ["parent is a file", "name too long"])
+def test_an_output_that_cannot_be_written_is_one_message(tmp_path, command, where):
+    (tmp_path / "file").write_text("x")
+    out = tmp_path / "file" / "spec.yaml" if where == "parent is a file" else tmp_path / ("x" * 300 + ".yaml")
+    done = armcal_cli(*_writers(out)[command])
+    assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
+    assert done.stderr.startswith("error: cannot write ") and done.stderr.count("\n") == 1, done.stderr
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="needs root to mount a read-only tmpfs")
+def test_a_read_only_file_system_is_one_message(tmp_path):
+    mount = tmp_path / "ro"
+    mount.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m,ro", "tmpfs", str(mount)], capture_output=True).returncode != 0:
+        pytest.skip("mounting a tmpfs is not allowed here")
+    try:
+        done = armcal_cli(*_writers(mount / "spec.yaml")["new"])
+        assert done.returncode == 1 and "Read-only file system" in done.stderr and "Traceback" not in done.stderr, done.stderr
+    finally:
+        subprocess.run(["umount", str(mount)], capture_output=True)

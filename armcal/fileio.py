@@ -101,7 +101,8 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
         handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
         with os.fdopen(handle, "wb") as stream:
             stream.write(data)
-        os.chmod(temporary, 0o666 & ~current_umask())  # mkstemp makes 0600; give the usual mode
+        replaced = path.stat().st_mode & 0o777 if path.is_file() else 0o666 & ~current_umask()
+        os.chmod(temporary, replaced)  # mkstemp makes 0600: the replaced file's mode, else the usual one
         os.replace(temporary, path)
     except OSError as exc:
         _remove(temporary)
@@ -114,6 +115,14 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
 def _remove(temporary: str | None) -> None:
     if temporary is not None:
         Path(temporary).unlink(missing_ok=True)
+
+
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")  # a spreadsheet reads a cell starting so as a formula
+
+
+def spreadsheet_safe(text: str) -> str:
+    """A text cell for a CSV file that a spreadsheet shows as text: one starting as a formula gets a leading quote."""
+    return "'" + text if text.startswith(FORMULA_STARTS) else text
 
 
 def current_umask() -> int:

@@ -51,3 +51,32 @@ def test_a_read_only_file_system_is_one_message(tmp_path):
         assert done.returncode == 1 and "Read-only file system" in done.stderr and "Traceback" not in done.stderr, done.stderr
     finally:
         subprocess.run(["umount", str(mount)], capture_output=True)
+
+
+def test_a_replaced_file_keeps_its_mode(tmp_path):
+    out = tmp_path / "spec.yaml"
+    out.write_text("old\n")
+    out.chmod(0o640)
+    done = armcal_cli(*_writers(out)["new"])
+    assert done.returncode == 0, done.stderr
+    assert out.read_text() != "old\n" and stat.S_IMODE(out.stat().st_mode) == 0o640
+
+
+@pytest.mark.parametrize("name", ["=cmd|' /C calc'!A0", "+1+1", "-2+3", "@SUM(A1)", "\tx"])
+def test_a_target_named_like_a_formula_is_written_as_text(name):
+    """compensate's commands.csv: a spreadsheet must show the target's name, not run it (issue 30 class 9)."""
+    import csv
+
+    import numpy as np
+
+    from armcal.export.compensation import compensate
+    from armcal.kinematics.compiler import compile_robot
+    from armcal.kinematics.transforms import pose_from_matrix
+    from armcal.spec import load_spec
+
+    loaded = load_spec(ROOT / "specs" / "puma560_dh.yaml")
+    x, y, z, rz, ry, rx = pose_from_matrix(compile_robot(loaded.spec.robot).tool_poses(np.radians([[10, -40, 150, 5, 30, 20]]))[0])
+    row = [name.replace('"', '""'), *(f"{v:.9g}" for v in (x / 10, y / 10, z / 10, *np.degrees([rx, ry, rz])))]  # cm, deg
+    text, _, _ = compensate(loaded, None, "name,x,y,z,rx,ry,rz\n" + ",".join(f'"{c}"' for c in row) + "\n", "targets")
+    written = next(csv.DictReader(text.splitlines()))["name"]
+    assert written == "'" + name

@@ -21,6 +21,7 @@ import numpy as np
 from armcal.effects.library import from_spec
 from armcal.effects.measurement import EffectSet, extras_size
 from armcal.errors import UserError
+from armcal.fileio import spreadsheet_safe
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel, compile_robot
 from armcal.kinematics.transforms import pose_from_matrix, xyz_zyx
@@ -115,7 +116,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
             "unreachable: no inverse-kinematics solution" if not found[i] else f"unreachable: {error[i]:.3g} mm off")
         if status != "ok":
             unreached.append(f"{label} ({status[13:]})")
-        row = [label, status]
+        row = [spreadsheet_safe(label), status]
         row += [f"{command[i, j] / factor(joint_kind(kind), units.of(joint_kind(kind))):.12g}" if found[i] else "" for j, (_, kind) in enumerate(joints)]
         row.append(f"{error[i]:.3g}" if found[i] else "")
         if corrected is not None and not found[i]:

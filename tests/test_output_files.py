@@ -80,3 +80,25 @@ def test_a_target_named_like_a_formula_is_written_as_text(name):
     text, _, _ = compensate(loaded, None, "name,x,y,z,rx,ry,rz\n" + ",".join(f'"{c}"' for c in row) + "\n", "targets")
     written = next(csv.DictReader(text.splitlines()))["name"]
     assert written == "'" + name
+
+
+def test_a_file_that_is_no_data_file_is_not_echoed(tmp_path):
+    """A system file given as data (issue 30 class 2): its header is no column name, so the message names the column's
+    position and length, never its text; a cell that is no value is described by its length too."""
+    from conftest import copy_example
+
+    secret = "root:x:0:0:armcal-secret-" + "z" * 30 + ":/root:/bin/bash"
+    copy_example("hidden_harmonic", tmp_path)
+    data = tmp_path / "calibration.csv"
+    original = data.read_text()
+    data.write_text(secret + "\ndaemon:x:1:1\n")
+    done = armcal_cli("run", tmp_path / "spec.yaml", "--no-pdf")
+    assert done.returncode == 1 and "armcal-secret" not in done.stdout + done.stderr, done.stderr
+    assert "unknown column 1 (a header of" in done.stderr
+    lines = original.splitlines()
+    cells = lines[1].split(",")
+    cells[2] = "=" + secret  # q1
+    data.write_text("\n".join([lines[0], ",".join(cells), *lines[2:]]) + "\n")
+    done = armcal_cli("run", tmp_path / "spec.yaml", "--no-pdf")
+    assert done.returncode == 1 and "armcal-secret" not in done.stdout + done.stderr, done.stderr
+    assert "a value of" in done.stderr and "is not a number" in done.stderr

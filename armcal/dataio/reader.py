@@ -69,16 +69,27 @@ def _table(path: Path) -> tuple[list[str], list[list[str]]]:
     return [h.strip() for h in rows[0]], rows[1:]
 
 
+COLUMN_NAME = re.compile(r"[A-Za-z0-9_. -]{1,40}")  # what a header cell may be to be quoted in a message
+CELL = re.compile(r"[A-Za-z0-9_.,:+ -]{1,24}")  # what a data cell may be to be quoted (a number, a name, '1,5')
+
+
+def _quoted(raw: str) -> str:
+    """A cell as a message shows it: quoted when it looks like a value, else only its length (no file content)."""
+    return f"'{raw}'" if CELL.fullmatch(raw) else f"a value of {len(raw)} characters"
+
+
 def _header(header: list[str], cols: Layout, problems: _Problems) -> Layout:
     seen: set[str] = set()
     for index, name in enumerate(header, start=1):
+        quotable = COLUMN_NAME.fullmatch(name) is not None  # else the file is no data file: none of it is echoed
+        shown = f"'{name}'" if quotable else f"{index} (a header of {len(name)} characters that is no column name, not shown)"
         if name in seen:
-            problems.add(1, index, name, f"column '{name}' appears twice")
+            problems.add(1, index, name if quotable else "", f"column {shown} appears twice")
         seen.add(name)
         if name not in cols.known:
-            close = difflib.get_close_matches(name, list(cols.known), n=1)
+            close = difflib.get_close_matches(name, list(cols.known), n=1) if quotable else []
             hint = f" Did you mean '{close[0]}'?" if close else f" Known columns: {', '.join(cols.known)}."
-            problems.add(1, index, name, f"unknown column '{name}'.{hint}")
+            problems.add(1, index, name if quotable else "", f"unknown column {shown}.{hint}")
     missing = [c for c in cols.required if c not in seen]
     if missing:
         problems.add(1, None, "", f"missing column{'s' if len(missing) > 1 else ''}: {', '.join(missing)}")
@@ -124,7 +135,7 @@ def _parse(path: Path, spec: Spec, device, cols: Layout, header: list[str], rows
                 text[column][r] = raw
                 if column in names and raw not in names[column]:
                     allowed = ", ".join(sorted(n for n in names[column] if n)) or "none"
-                    problems.add(line, index[column] + 1, column, f"'{raw}' is not a known {column} ({allowed})")
+                    problems.add(line, index[column] + 1, column, f"{_quoted(raw)} is not a known {column} ({allowed})")
             elif raw == "":
                 if column in cols.required and not (column.startswith("q") and not on_robot):
                     problems.add(line, index[column] + 1, column, "empty value")
@@ -132,7 +143,8 @@ def _parse(path: Path, spec: Spec, device, cols: Layout, header: list[str], rows
                 try:
                     values[column][r] = _number(raw, kind, spec)
                 except ValueError as exc:
-                    message = str(exc) if "finite" in str(exc) or "direction" in str(exc) else f"'{raw}' is not a number"
+                    quotable = CELL.fullmatch(raw) is not None
+                    message = str(exc) if quotable and ("finite" in str(exc) or "direction" in str(exc)) else f"{_quoted(raw)} is not a number"
                     problems.add(line, index[column] + 1, column, message)
         if on_robot:
             _check_limits(spec, values, index, r, problems)

@@ -122,6 +122,10 @@ def montecarlo(
     return Study(summary, out_dir, written)
 
 
+MAX_POSE_COUNT = 10_000  # poses of one study design (its 3N random poses and candidates grow with it)
+MAX_POSE_COUNTS = 20  # designs of one study
+
+
 def pose_counts(text: str | None) -> list[int]:
     """``--poses 15,30,60`` as numbers; a located message for anything else."""
     if not text:
@@ -130,8 +134,8 @@ def pose_counts(text: str | None) -> list[int]:
         counts = [int(part) for part in text.split(",")]
     except ValueError:
         raise UserError(f"--poses {text}: give whole numbers of poses separated by commas, e.g. 15,30,60") from None
-    if min(counts) < 1:
-        raise UserError(f"--poses {text}: numbers of poses are positive")
+    if min(counts) < 1 or max(counts) > MAX_POSE_COUNT or len(counts) > MAX_POSE_COUNTS:
+        raise UserError(f"--poses {text}: up to {MAX_POSE_COUNTS} numbers of poses, each from 1 to {MAX_POSE_COUNT}")
     return sorted(set(counts))
 
 

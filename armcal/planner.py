@@ -34,6 +34,7 @@ from armcal.units import from_internal
 
 MAX_POSES = 100_000
 MAX_CANDIDATES = 200_000
+MAX_RUNS = 10_000  # simulated robots predicting the held-out accuracy: 50 give it to a few per cent
 DEFAULT_CANDIDATES = 2000
 DEFAULT_RUNS = 50
 ORIENTATIONS = ("task", "any")
@@ -76,8 +77,8 @@ def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | No
         raise UserError(f"--region {region}: choose one of {', '.join(REGIONS)}")
     if orientation not in ORIENTATIONS:
         raise UserError(f"--orientation {orientation}: choose task (the default) or any")
-    if runs < 0:
-        raise UserError(f"--runs {runs}: give 0 (no Monte Carlo) or more simulated robots")
+    if not 0 <= runs <= MAX_RUNS:
+        raise UserError(f"--runs {runs}: give 0 (no Monte Carlo) to {MAX_RUNS} simulated robots")
     refuse_replacing([out, side_file(out)], [spec_path, *([extend] if extend else [])], force)
     loaded = load_spec(spec_path)
     spec = loaded.spec

@@ -126,3 +126,16 @@ def test_studies_and_procedures_of_unbounded_size(workspace):
     spec = ROOT / "examples" / "goswami_ballbar" / "spec.yaml"
     (workspace / "shells.yaml").write_text(spec.read_text().replace("longitudes: 23", "longitudes: 3000000"))
     refused(armcal("validate", workspace / "shells.yaml"), "longitudes")
+
+
+@pytest.mark.parametrize("args, phrase", [
+    (("montecarlo", "--poses", "99999999999999999999"), "each from 1 to 10000"),
+    (("montecarlo", "--poses", "5000000"), "each from 1 to 10000"),
+    (("montecarlo", "--poses", ",".join(str(n) for n in range(10, 40))), "up to 20 numbers of poses"),
+    (("plan", "--poses", "10", "--runs", "20000", "--out", "p.csv"), "to 10000 simulated robots"),
+])
+def test_count_options_have_upper_bounds(workspace, args, phrase):
+    """Every count a user types is checked against an upper bound before anything is allocated (issue 30 class 6)."""
+    command, *rest = args
+    rest = [str(workspace / a) if a.endswith(".csv") else a for a in rest]
+    refused(armcal(command, workspace / "spec.yaml", *rest), phrase)

@@ -33,6 +33,7 @@ class Calibration:
     label: str
     name: str
     serial: str
+    chain: tuple[str, int]  # convention, number of joints
     created: str | None
     run_id: str | None
     parameters: list[dict]  # {name, unit, value, std, free}, values in the spec's units
@@ -48,7 +49,8 @@ def calibration(argument: str) -> Calibration:
     if folder or path.suffix == ".json":
         results = read_results(results_file(path))
         robot = results["robot"]
-        return Calibration(argument, robot["name"], robot["serial"], results["created"], results.get("run_id"), results["parameters"])
+        return Calibration(argument, robot["name"], robot["serial"], (robot["convention"], robot["dof"]), results["created"],
+                           results.get("run_id"), results["parameters"])
     if not exists and "@" in argument:
         file, _, revision = argument.rpartition("@")
         raw = file_at_revision(Path(file), revision)
@@ -79,7 +81,15 @@ def _from_spec(loaded: LoadedSpec, label: str) -> Calibration:
         })
     header = _CALIBRATED_BY.search(loaded.text)
     created, run = (header["created"], header["run"]) if header else (None, None)
-    return Calibration(label, spec.robot.name, spec.robot.serial, created, run, rows)
+    return Calibration(label, spec.robot.name, spec.robot.serial, (spec.robot.convention, spec.robot.dof), created, run, rows)
+
+
+def _check_same_model(old: Calibration, new: Calibration) -> None:
+    """A UserError when two calibrations of one serial are of different robots or chains (a placeholder serial)."""
+    if (new.name, new.chain) != (old.name, old.chain):
+        raise UserError(f"{new.label}: {new.name}, a {new.chain[0]} chain of {new.chain[1]} joints, is not {old.name}, a "
+                        f"{old.chain[0]} chain of {old.chain[1]} joints, of {old.label}: the calibrations compared must be of one "
+                        "robot and one model of it")
 
 
 def _when(c: Calibration) -> str:
@@ -90,6 +100,7 @@ def compare(old_argument: str, new_argument: str) -> tuple[str, int]:
     """A plain-text table of the parameters of two calibrations of one robot and the number of significant changes."""
     old, new = calibration(old_argument), calibration(new_argument)
     check_same_robot(new.serial, old.serial, new.label, old.label)
+    _check_same_model(old, new)
     lines = [
         f"{new.name} ({new.serial}): {_when(old)} -> {_when(new)}",
         f"{'parameter':32} {'old':>14} {'new':>14} {'change':>12} {'unit':8} {'z':>7}",

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, Field
 
 TASK_TITLES = {"grid_task": "Grid-touching task (Stone 7.2.1)", "iso9283": "ISO 9283 positional accuracy"}  # evaluation's tasks
 
@@ -73,9 +73,9 @@ class IdentifiabilityInfo(_Frozen):
 class ParameterResult(_Frozen):
     name: str
     unit: str
-    nominal: float
-    value: float
-    std: float | None
+    nominal: Annotated[float, Field(allow_inf_nan=False)]
+    value: Annotated[float, Field(allow_inf_nan=False)]
+    std: Annotated[float, Field(ge=0.0, allow_inf_nan=False)] | None  # null: not identified
     free: bool
 
 

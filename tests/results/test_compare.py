@@ -6,6 +6,7 @@ calibrated specs (whose std equals results.json's) and from one calibrated spec 
 import json
 import shutil
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -99,3 +100,33 @@ def test_a_calibrated_spec_at_two_git_revisions(two_calibrations):
     assert missing.returncode == 1 and "no branch, tag or commit 'nosuchbranch'" in missing.stderr
     root_commit = armcal_cli("compare", f"{spec}@HEAD~2", spec)
     assert root_commit.returncode == 1 and "has 0 parent(s)" in root_commit.stderr
+
+
+def test_two_robots_or_chains_under_one_serial_are_not_compared_and_nonsense_numbers_are_refused(tmp_path):
+    """Identity is more than the serial (issue 30 class 4): another robot, or another chain, under the same serial (a
+    placeholder) is refused; a results.json whose parameter std is NaN, infinite or negative is not read."""
+    import json
+
+    from armcal.errors import UserError
+    from armcal.results.compare import compare
+
+    golden = json.loads((Path(__file__).resolve().parents[1] / "data" / "golden" / "results.json").read_text())
+    (tmp_path / "a.json").write_text(json.dumps(golden))
+    for change, phrase in ((lambda r: r["robot"].update(name="Another arm"), "must be of one robot and one model"),
+                           (lambda r: r["robot"].update(convention="mdh"), "must be of one robot and one model"),
+                           (lambda r: r["robot"].update(dof=7), "must be of one robot and one model")):
+        other = json.loads(json.dumps(golden))
+        change(other)
+        (tmp_path / "b.json").write_text(json.dumps(other))
+        with pytest.raises(UserError, match=phrase):
+            compare(str(tmp_path / "a.json"), str(tmp_path / "b.json"))
+    text, significant = compare(str(tmp_path / "a.json"), str(tmp_path / "a.json"))
+    assert significant == 0
+    for bad in ("NaN", "Infinity", "-1.0"):
+        raw = json.dumps(golden)
+        row = next(p for p in golden["parameters"] if p["std"] is not None)
+        broken = raw.replace(json.dumps(row), json.dumps({**row, "std": 12345.678}).replace("12345.678", bad), 1)
+        assert broken != raw
+        (tmp_path / "b.json").write_text(broken)
+        with pytest.raises(UserError, match="not a results.json as armcal writes it"):
+            compare(str(tmp_path / "a.json"), str(tmp_path / "b.json"))

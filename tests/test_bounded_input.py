@@ -139,3 +139,23 @@ def test_count_options_have_upper_bounds(workspace, args, phrase):
     command, *rest = args
     rest = [str(workspace / a) if a.endswith(".csv") else a for a in rest]
     refused(armcal(command, workspace / "spec.yaml", *rest), phrase)
+
+
+@pytest.mark.parametrize("tamper", ["drop a link error", "a NaN encoder error", "an effect of no known type", "no parameters"])
+def test_a_tampered_truth_record_is_refused_not_a_traceback(workspace, tamper):
+    """A truth.json whose hashes still match the data but whose robot was edited (issue 30 class 10): one message."""
+    import json
+
+    assert armcal("simulate", workspace / "spec.yaml", "--out", workspace, "--force").returncode == 0
+    path = workspace / "truth.json"
+    record = json.loads(path.read_text())
+    if tamper == "drop a link error":
+        record["link_errors"] = record["link_errors"][:-1]
+    elif tamper == "a NaN encoder error":
+        record["encoder_errors"][0] = float("nan")
+    elif tamper == "an effect of no known type":
+        record["hidden_effects"] = [{"type": "no_such_effect", "joint": 2}]
+    else:
+        del record["parameters"]
+    path.write_text(json.dumps(record))
+    refused(armcal("run", workspace / "spec.yaml", "--no-pdf"), "truth.json", "not a truth record")

@@ -12,6 +12,7 @@ from armcal.dataio.writer import write_measurements
 from armcal.errors import UserError
 from armcal.fileio import read_input, refuse_replacing, write_text_atomic
 from armcal.simulate.campaign import Campaign, simulate_campaign
+from armcal.simulate.truth import record_problem
 from armcal.spec import LoadedSpec
 
 
@@ -57,8 +58,9 @@ def find_truth(data_file: Path) -> dict | None:
         record = json.loads(read_input(record_path, "truth"))
     except (ValueError, RecursionError):
         record = None
-    if not isinstance(record, dict) or not isinstance(record.get("data_sha256"), dict):
-        raise UserError(f"{record_path}: not a truth record written by armcal simulate; remove it or simulate the data again")
+    problem = "it is not a JSON mapping with data_sha256" if not isinstance(record, dict) or not isinstance(record.get("data_sha256"), dict) else record_problem(record)
+    if problem:
+        raise UserError(f"{record_path}: not a truth record written by armcal simulate ({problem}); remove it or simulate the data again")
     digest = hashlib.sha256(read_input(data_file, "data")).hexdigest()
     return record if record["data_sha256"].get(Path(data_file).name) == digest else None
 

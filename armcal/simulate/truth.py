@@ -19,6 +19,7 @@ from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, rot_x, rot_y, rot_z, trans
 from armcal.effects.library import EffectSpec, LumpedMass, from_spec
 from armcal.effects.measurement import EffectSet, extras_matrix
+from armcal.spec.effect_vocabulary import EFFECT_TYPES
 from armcal.spec.sections import Simulate
 
 
@@ -96,6 +97,29 @@ class TrueRobot:
             "parameters": dict(zip(self.kinematics.parameters.names, self.p.tolist())),
             "hidden_effects": [{**asdict(e), "held": sorted(e.held)} for e in self.effects.effects],
         }
+
+
+def record_problem(record: dict) -> str | None:
+    """What is wrong with a truth.json record (None when it has the parts ``from_record`` reads, each of its shape);
+    said in the record's terms only, never by quoting it."""
+    try:
+        parameters = record["parameters"]
+        if not isinstance(parameters, dict) or not all(isinstance(v, (int, float)) and np.isfinite(v) for v in parameters.values()):
+            return "its parameters are not a mapping of names to finite numbers"
+        links, encoders = np.asarray(record["link_errors"], dtype=float), np.asarray(record["encoder_errors"], dtype=float)
+        if encoders.ndim != 1 or links.shape != (len(encoders) + 1, 4, 4) or not (np.isfinite(links).all() and np.isfinite(encoders).all()):
+            return "its link_errors and encoder_errors are not n + 1 finite 4 x 4 transforms and n finite numbers"
+        if not isinstance(record["hidden_effects"], list):
+            return "its hidden_effects are not a list"
+        for effect in record["hidden_effects"]:
+            if not isinstance(effect, dict) or effect.get("type") not in EFFECT_TYPES:
+                return "a hidden effect is not one of armcal's effect types"
+            _effect(effect)
+    except KeyError:
+        return "it lacks parameters, link_errors, encoder_errors or hidden_effects"
+    except (TypeError, ValueError, IndexError, AttributeError):  # a ValidationError of an effect is a ValueError
+        return "a part of it is not of the kind armcal simulate writes"
+    return None
 
 
 def _effect(record: dict) -> EffectSpec:

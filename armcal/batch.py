@@ -67,9 +67,13 @@ def fleet_folder_name(spec: Path) -> str:
 def jobs(specs: list[Path], out_dir: Path | None, force: bool, pdf: bool) -> list[Job]:
     """One job per spec, paths absolute (workers may run elsewhere); with ``out_dir`` each writes to
     out_dir/<folder>-<stem> (fleet_folder_name), else to the spec's default folder."""
-    missing = [spec for spec in specs if not Path(spec).is_file()]
-    if missing:
-        raise UserError(f"{missing[0]}: no such spec file")
+    for spec in map(Path, specs):
+        try:
+            why = None if spec.is_file() else "it is a folder" if spec.is_dir() else "it is not a regular file" if spec.exists() else "there is no such file"
+        except OSError as exc:  # a name too long, a loop of links
+            why = exc.strerror or str(exc)
+        if why:
+            raise UserError(f"{spec}: cannot read the spec file: {why}")
     paths = [Path(spec).resolve() for spec in specs]
     if out_dir is None:
         folders = [default_out_dir(path) for path in paths]

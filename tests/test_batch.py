@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, SPECS
+from conftest import ROOT, SPECS, armcal_cli
 
 from armcal.batch import batch, exit_code, jobs
 from armcal.terminal import batch_summary
@@ -98,3 +98,18 @@ def test_two_jobs_never_share_an_output_folder(tmp_path):
 
     with pytest.raises(UserError, match="two specs would write to"):
         batch([FLEET[0], Path(str(FLEET[0]).replace("/examples/", "/examples/../examples/"))], pdf=False, workers=1)
+
+
+@pytest.mark.parametrize("kind, why", [("fifo", "it is not a regular file"), ("folder", "it is a folder"), ("missing", "there is no such file")])
+def test_a_spec_that_is_no_file_says_what_it_is(tmp_path, kind, why):
+    """batch names what stands where a spec belongs (issue 30 class 10: a FIFO or a folder was 'no such spec file')."""
+    import os
+
+    spec = tmp_path / "spec.yaml"
+    if kind == "fifo":
+        os.mkfifo(spec)
+    elif kind == "folder":
+        spec.mkdir()
+    done = armcal_cli("batch", spec, "--out", tmp_path / "fleet", "--no-pdf")
+    assert done.returncode == 1 and "Traceback" not in done.stderr
+    assert f"{spec}: cannot read the spec file: {why}" in done.stderr, done.stderr

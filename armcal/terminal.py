@@ -11,6 +11,7 @@ from armcal.evaluate.grid import RADIAL
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.parallel import parallel_axes
 from armcal.kinematics.transforms import pose_from_matrix
+from armcal.identify.precision import WEAK
 from armcal.results.breakdown import before_data, table_lines
 from armcal.results.plausibility import WHY, status_words
 from armcal.results.schema import TASK_TITLES
@@ -143,6 +144,18 @@ def implausible_lines(r) -> list[str]:
     return lines
 
 
+def weak_lines(r) -> list[str]:
+    """The robot values held because the data determine them too poorly (identify/precision.py), with their stds."""
+    weak = [(f.name, f.reason.removeprefix(WEAK + ": ")) for f in r.identifiability.fixed if f.reason.startswith(WEAK)]
+    if not weak:
+        return []
+    lines = [f"  held at nominal, {WEAK} (robot values the data determine too poorly to fit; measure poses that move them):"]
+    lines += [f"    {name}: {why}" for name, why in weak[:IMPLAUSIBLE_SHOWN]]
+    if len(weak) > IMPLAUSIBLE_SHOWN:
+        lines.append(f"    and {len(weak) - IMPLAUSIBLE_SHOWN} more (results.json: identifiability.fixed)")
+    return lines
+
+
 def run_summary(outcome) -> str:
     """What `armcal run` prints: status, identifiability, residuals before/after, files written."""
     r = outcome.results
@@ -154,6 +167,7 @@ def run_summary(outcome) -> str:
         f"  identified {r.identifiability.rank} of {r.identifiability.n_parameters} parameters, "
         f"condition number {r.identifiability.condition_number:.3g}",
         *(table_lines(r.identifiability.breakdown) if r.identifiability.breakdown else []),
+        *weak_lines(r),
         f"  calibration RMS {cal.before.rms:.4g} -> {cal.after.rms:.4g} {unit} (x{r.improvement_factor.calibration:.3g})",
     ]
     if r.residuals.validation is not None:
@@ -342,6 +356,10 @@ def held_out_lines(r) -> list[str]:
                       f"determined{along}. Add poses that move them (armcal plan SPEC --extend CALIBRATION.csv), or hold values "
                       "known from a measurement (vary: false) [procedure, robot.targets, device]"]
     causes = ["the instrument moved between the two data sets (data.instrument_moved: true)"]
+    weak = [f.name for f in r.identifiability.fixed if f.reason.startswith(WEAK)]
+    if weak:
+        causes.insert(0, f"a value held at nominal as {WEAK} differs from the robot's: {', '.join(weak)} (give its measured "
+                         "value, or add poses that move it: armcal plan SPEC --extend CALIBRATION.csv)")
     if r.noise_check.verdict == "residuals_too_large":  # the calibration data exceed the declared noise already
         causes.insert(0, f"the declared noise is too small: the calibration residuals exceed it too (noise check chi2/dof = "
                          f"{r.noise_check.chi2 / r.noise_check.dof:.3g}) [device.noise]")

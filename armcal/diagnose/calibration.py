@@ -105,7 +105,7 @@ def noise_from_data(spec: Spec, kinematics: KinematicModel, device: DeviceModel,
     first = provisional_scale(unit, problem, start)
     provisional = device.with_noise_scale({**unit.noise_scale, **first})
     problem = rescaled(problem, readings_groups(unit, problem), unit.noise_scale, provisional.noise_scale)
-    estimates, _ = estimate_noise(provisional, problem, spec.fit, start, design_identifiability(problem, start))
+    estimates, _ = estimate_noise(provisional, problem, spec.fit, start, design_identifiability(problem, start, hold_weak=False))
     return estimates, device.with_noise_scale({**unit.noise_scale, **estimates.scale})
 
 

@@ -40,9 +40,9 @@ class FitResult:
         return out
 
 
-def design_identifiability(problem: Problem, design: np.ndarray) -> Identifiability:
-    """The base set of ``problem``'s free parameters at the design point ``design``."""
-    return analyse(problem.design_jacobian(design), problem.parameters, problem.parameters.free)
+def design_identifiability(problem: Problem, design: np.ndarray, hold_weak: bool = True) -> Identifiability:
+    """The base set of ``problem``'s free parameters at the design point ``design`` (identifiability.analyse)."""
+    return analyse(problem.design_jacobian(design), problem.parameters, problem.parameters.free, hold_weak)
 
 
 def fit(problem: Problem, settings: Fit, start: np.ndarray | None = None, identifiability: Identifiability | None = None) -> FitResult:

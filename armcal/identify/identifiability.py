@@ -43,6 +43,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg
 
+from armcal.identify.precision import weakly_identifiable
 from armcal.identify.threads import each
 from armcal.kinematics.params import ParameterSet
 
@@ -51,6 +52,10 @@ PRIORITY = ("device", "target", "chain")  # who carries a redundancy: the instru
 FLAT_RATIO = 1e-3  # s_k / s_1 of the scaled base Jacobian below which a direction is reported as flat
 TIE = 1e-10  # difference of two unit columns' new parts below which the one first in the spec is taken (rounding
 # makes new parts as small as RANK_TOLERANCE err by up to ~1e-13: a relative tie would be no wider than that)
+ALIGNED = 1e-2  # two new parts of sizes equal to this fraction and directions equal to it (sine of their angle) are
+# one choice, taken in the spec's order: columns exactly redundant but for a rounded angle (a URDF's 1.5708 for pi/2,
+# 3.7e-6 rad) differ by that angle times a lever ratio, up to ~1e-3 (a Gen3's L4.beta and L5.alpha: sizes 2e-5
+# apart, directions 1.3e-3), the sign set by the poses: by size alone two campaigns would hold different ones
 ROWS = 1024  # rows of J per step of its blockwise QR (triangular)
 SHARE = 4 * ROWS  # rows of J whose R one thread computes (triangular)
 
@@ -67,9 +72,10 @@ class Identifiability:
     unidentifiable: tuple[str, ...]  # named directions: "scale"
 
 
-def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identifiability:
+def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray, hold_weak: bool = True) -> Identifiability:
     """Base parameter set among the ``free`` columns of the (weighted) Jacobian J at the design point:
-    the geometric ones by pivoted QR, group by group in PRIORITY order, then the effects' by ``extend``."""
+    the geometric ones by pivoted QR, group by group in PRIORITY order, less the robot values the data determine
+    too poorly (precision.py; ``hold_weak`` False while the weights are provisional), then the effects' by ``extend``."""
     names = parameters.names
     roles = np.array([e.role for e in parameters.entries])
     fixed = [(n, held_reason(e)) for n, f, e in zip(names, free, parameters.entries) if not f]
@@ -92,6 +98,11 @@ def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identi
     base = columns[chosen]
     base_names = [names[c] for c in base]
     fixed += [(names[columns[k]], reason) for k, reason in zip(dependent, _redundancies(scaled[:, chosen], base_names, scaled[:, dependent]))]
+    if hold_weak:
+        weak = weakly_identifiable(J[:, base], [parameters.entries[c] for c in base])
+        fixed += [(base_names[k], reason) for k, reason in weak]
+        kept = sorted(set(range(len(base))) - {k for k, _ in weak})
+        chosen, base, base_names = [chosen[k] for k in kept], base[kept], [base_names[k] for k in kept]
     rank = len(base)
     singular = np.linalg.svd(scaled[:, chosen], compute_uv=False) if rank else np.zeros(0)
     condition = float(singular[0] / singular[-1]) if rank else float("inf")
@@ -112,7 +123,9 @@ def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray) -> Identi
 
 def _pivoted(columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """QR with column pivoting of unit ``columns``, ties taken in their order: the pivots whose new part exceeds
-    RANK_TOLERANCE, and the orthonormal directions they add (Golub & Van Loan's algorithm 5.4.1, norms recomputed)."""
+    RANK_TOLERANCE, and the orthonormal directions they add (Golub & Van Loan's algorithm 5.4.1, norms recomputed).
+    A tie is equal new parts (TIE), or new parts equal in size and direction to ALIGNED: an earlier column is then
+    taken before the largest."""
     rest = columns.copy()
     pivots, directions = [], []
     for _ in range(min(rest.shape)):
@@ -123,6 +136,11 @@ def _pivoted(columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             break
         k = int(np.flatnonzero(parts >= largest - TIE)[0])
         q = rest[:, k] / parts[k]
+        twins = [j for j in np.flatnonzero(parts[:k] >= largest * (1.0 - ALIGNED))
+                 if np.linalg.norm(rest[:, j] - q * (q @ rest[:, j])) <= ALIGNED * parts[j]]
+        if twins:  # an earlier column whose new part is this one's, but for a rounded angle: the spec's order
+            k = twins[0]
+            q = rest[:, k] / parts[k]
         if directions:  # once more off the directions before it: Gram-Schmidt loses orthogonality once
             q = _off(np.column_stack(directions), q[:, None])[:, 0]
             q /= np.linalg.norm(q)

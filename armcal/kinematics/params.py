@@ -12,7 +12,7 @@ import numpy as np
 
 from armcal.kinematics.parallel import parallel_axes
 from armcal.spec.base import Parameter
-from armcal.spec.robot import RobotBase, SixParameterRobot, joint_kind
+from armcal.spec.robot import RobotBase, SixParameterRobot, Tolerance, joint_kind
 from armcal.units import INTERNAL_UNIT
 
 POSE_FIELDS = ("x", "y", "z", "rx", "ry", "rz")
@@ -46,6 +46,7 @@ class ParameterInfo:
     upper: float | None
     reason: str = ""  # why the model holds a parameter the spec leaves free (e.g. parallel axes)
     role: str = "chain"  # chain | target (on a link) | device (the instrument's) | effect
+    tolerance: float | None = None  # plausible deviation from nominal (robot.tolerance, internal unit); None: not judged
 
     @property
     def unit(self) -> str:
@@ -124,4 +125,6 @@ def parameter_set(robot: RobotBase) -> ParameterSet:
     entries += pose_entries("tool", robot.tool)
     for name, target in robot.targets.items():
         entries += [replace(e, role="target") for e in pose_entries(name, target)]
-    return ParameterSet(tuple(entries))
+    tolerance = robot.tolerance or Tolerance()
+    plausible = {"length": tolerance.length, "angle": tolerance.angle}
+    return ParameterSet(tuple(replace(e, tolerance=plausible.get(e.kind)) for e in entries))

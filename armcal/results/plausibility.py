@@ -2,7 +2,7 @@
 
 A fit can end `converged` with a length 1.8 m from its drawing value and a std of 0.05 mm: the data determined a
 combination, the rounding or a flat direction chose the rest. Every identified robot value (base, links, joints,
-tool, targets: kinematics/params.parameter_set) is compared with its nominal value: a length beyond
+tool, targets: kinematics/params.parameter_set gives them their tolerance) is compared with its nominal value: a length beyond
 `robot.tolerance.length` (default 10 mm) or an angle beyond `robot.tolerance.angle` (default 2 deg, the difference
 taken the short way round) is implausible, and the terminal, results.json and the certificate say so, with why:
 a value many of its stds from nominal was put there by the data (check the nominal value: the drawing, the
@@ -21,7 +21,6 @@ from armcal.spec.robot import Tolerance
 from armcal.units import from_internal
 
 JUDGED = ("length", "angle")
-ROBOT_ROLES = ("chain", "target")  # kinematics/params: the robot's own values, not the instrument's
 DETERMINED = 5.0  # deviation over std beyond which the data, not a flat direction, put the value there
 WHY = {
     "nominal": "the data put it there (many stds from nominal): check the nominal value",
@@ -45,12 +44,12 @@ def plausibility(spec: Spec, entries, values: np.ndarray, std: np.ndarray, ident
     shown = lambda value, kind: from_internal(float(value), kind, unit[kind])  # noqa: E731
     implausible = []
     for entry, value, sd in zip(entries, values, std):
-        if entry.name not in identified or entry.role not in ROBOT_ROLES or entry.kind not in JUDGED:
+        if entry.name not in identified or entry.tolerance is None:
             continue
         deviation = float(value - entry.nominal)
         if entry.kind == "angle":
             deviation = math.remainder(deviation, 2 * math.pi)
-        if abs(deviation) > limit[entry.kind]:
+        if abs(deviation) > entry.tolerance:
             implausible.append(
                 {
                     "name": entry.name,
@@ -58,7 +57,7 @@ def plausibility(spec: Spec, entries, values: np.ndarray, std: np.ndarray, ident
                     "nominal": shown(entry.nominal, entry.kind),
                     "value": shown(value, entry.kind),
                     "deviation": shown(deviation, entry.kind),
-                    "tolerance": shown(limit[entry.kind], entry.kind),
+                    "tolerance": shown(entry.tolerance, entry.kind),
                     "std": None if math.isnan(sd) else shown(sd, entry.kind),
                     "why": "nominal" if not math.isnan(sd) and abs(deviation) > DETERMINED * sd else "undetermined",
                 }

@@ -86,13 +86,13 @@ def counts() -> tuple[list[dict], dict]:
         chucks, spheres = len({p[0] for p in pairs}), len({p[1] for p in pairs})
         row = {"case": label, "pairs": [list(p) for p in pairs], "chucks": chucks, "spheres": spheres, "poses": int(rows.sum()), "goswami": goswami}
         for tag, free in (("scales", robot), ("no_scales", robot & ~scale)):
-            found = analyse(J[rows], problem.parameters, free)
+            found = analyse(J[rows], problem.parameters, free, hold_weak=False)  # the rank: Goswami's count, whatever the noise
             row[f"armcal_{tag}"] = found.rank
             row[f"condition_{tag}"] = found.condition_number
             row[f"formula_{tag}"] = formula(n_r, n_p, tag == "scales", chucks, spheres)
             row[f"parameters_{tag}"] = int(free.sum())
         rows_out.append(row)
-    own = analyse(J, problem.parameters, problem.parameters.free)  # the spec's free set: Goswami's Table II choice
+    own = analyse(J, problem.parameters, problem.parameters.free, hold_weak=False)  # the spec's free set: Goswami's Table II choice
     spec_choice = {"free": int(problem.parameters.free.sum()), "rank": own.rank, "redundant": [n for n, why in own.fixed if why.startswith("redundant")]}
     return rows_out, spec_choice
 

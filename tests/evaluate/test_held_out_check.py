@@ -14,6 +14,7 @@ import pytest
 from conftest import armcal_cli, copy_example
 
 from armcal.evaluate.held_out_check import NOISE_MULTIPLE, _chi2
+from armcal.identify.precision import WEAK
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.pipeline import run
 from armcal.terminal import held_out_lines
@@ -48,23 +49,36 @@ def test_a_complete_model_is_consistent_and_a_moved_instrument_is_not(tmp_path):
 
 
 def test_a_flat_direction_explains_a_poor_held_out_prediction(tmp_path):
-    """`armcal new`'s ball-bar fixture for the KR 6 (pivots and spheres free, pivots in one plane): the calibration
-    matches its noise, the held-out shells are about 6 sigmas off, and that is what the parameters' uncertainty
-    along the flat direction predicts."""
+    """`armcal new`'s ball-bar fixture for the KR 6 (pivots and spheres free, pivots in one plane) with a tolerance so
+    wide that nothing is held as weakly identifiable: the calibration matches its noise, the held-out shells are about
+    6 sigmas off, and that is what the parameters' uncertainty along the flat direction predicts. With the default
+    tolerance the poorly determined robot values are held at nominal instead (identify/precision.py): the held-out
+    residuals are a fraction of that, and what is left of them names the held values first."""
     spec = tmp_path / "spec.yaml"
     for args in (("new", "--robot", "kuka_kr6_r900_sixx", "--device", "ballbar", "--out", spec), ("simulate", spec)):
         result = armcal_cli(*args)
         assert result.returncode == 0, result.stderr
-    results = run(spec, tmp_path / "out", pdf=False).results
+    text = spec.read_text()
+    wide = tmp_path / "wide.yaml"
+    wide.write_text(text.replace("\nrobot:\n", "\nrobot:\n  tolerance: {length: 100 mm, angle: 20 deg}\n", 1))
+    assert wide.read_text() != text  # the same data, read by the wide spec
+    results = run(wide, tmp_path / "out", pdf=False).results
     check = results.held_out_check
     assert results.noise_check.verdict != "residuals_too_large"
     assert check.verdict == "parameter_uncertainty"
     # a margin from every threshold the verdict takes, so that no processor's last bits can flip it
     assert check.p_value > 5 * NOISE_CHECK_LEVEL and check.rms_over_noise > 2 * NOISE_MULTIPLE and check.parameter_share > 0.9
     assert check.expected_rms_over_noise == pytest.approx(check.rms_over_noise, rel=0.5)
-    text = "\n".join(held_out_lines(results))
+    lines = "\n".join(held_out_lines(results))
     flat = results.identifiability.flat_directions[0].parameters[0][0]
-    assert "the parameters' own uncertainty" in text and flat in text and "armcal plan" in text
+    assert "the parameters' own uncertainty" in lines and flat in lines and "armcal plan" in lines
+
+    held = run(spec, tmp_path / "held", pdf=False).results
+    weak = [f.name for f in held.identifiability.fixed if f.reason.startswith(WEAK)]
+    assert weak and held.held_out_check.verdict != "parameter_uncertainty"
+    assert held.held_out_check.rms_over_noise < check.rms_over_noise / 2
+    if held.held_out_check.verdict == "beyond_prediction":
+        assert f"as {WEAK} differs from the robot's: {', '.join(weak)}" in held_out_lines(held)[1]
 
 
 def test_the_held_out_chi2_is_the_quadratic_form_of_the_full_covariance_and_chi2_distributed():
@@ -91,6 +105,7 @@ def test_a_declared_noise_too_small_is_named_first_when_the_held_out_data_exceed
     check = SimpleNamespace(verdict="beyond_prediction", rms_over_noise=3.1, expected_rms_over_noise=1.2, chi2=900.0, dof=100,
                             p_value=1e-30, held_out_only=[], parameter_share=0.1)
     for verdict, first in (("residuals_too_large", "the declared noise is too small"), ("consistent", "the instrument moved")):
-        r = SimpleNamespace(held_out_check=check, noise_check=SimpleNamespace(verdict=verdict, chi2=950.0, dof=100))
+        r = SimpleNamespace(held_out_check=check, noise_check=SimpleNamespace(verdict=verdict, chi2=950.0, dof=100),
+                            identifiability=SimpleNamespace(fixed=[]))
         causes = held_out_lines(r)[1].split("likely causes: ")[1]
         assert causes.startswith(first), causes

@@ -66,5 +66,5 @@ def test_a_tolerance_from_the_spec_is_used_and_said():
     from armcal.spec.robot import Tolerance
 
     wide = spec.model_copy(update={"robot": spec.robot.model_copy(update={"tolerance": Tolerance(length="40 mm", angle="3 deg")})})
-    judged = plausibility(wide, entries, values, std, set(names))
+    judged = plausibility(wide, parameter_set(wide.robot).entries, values, std, set(names))
     assert judged["implausible"] == [] and judged["from_spec"] and judged["length"] == pytest.approx(4.0)  # cm

@@ -100,6 +100,7 @@ def run_figures(
         noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled, "verdict": uncertainty.verdict,
                      "causes": likely_causes(loaded, calibration)},
         correlations=[list(c) for c in uncertainty.correlations],
+        correlation_matrix={"parameters": list(ident.base), "matrix": uncertainty.correlation.tolist()},
         campaign=measured,
         acceptance=acceptance_block(spec.acceptance, calibration.validation, identified.theta, reading_kind),
         held_out_check=held_out_check(problem, calibration.validation, result, identified.theta) if identified.features is None else None,

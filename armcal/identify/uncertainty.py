@@ -34,6 +34,7 @@ class Uncertainty:
     scaled: bool  # covariance scaled by chi2 / dof
     verdict: str  # consistent | residuals_too_large | residuals_too_small
     correlations: tuple[tuple[str, str, float], ...]  # pairs above CORRELATION_REPORTED
+    correlation: np.ndarray  # (p, p) over the base parameters, within [-1, 1]
 
 
 def estimate(J: np.ndarray, r: np.ndarray, names: list[str]) -> Uncertainty:
@@ -55,7 +56,7 @@ def estimate(J: np.ndarray, r: np.ndarray, names: list[str]) -> Uncertainty:
         for j in range(i + 1, len(names))
         if abs(correlation[i, j]) >= CORRELATION_REPORTED
     ]
-    return Uncertainty(covariance, std, chi2, dof, p_value, scaled, verdict, tuple(pairs))
+    return Uncertainty(covariance, std, chi2, dof, p_value, scaled, verdict, tuple(pairs), correlation)
 
 
 def _root(J: np.ndarray) -> np.ndarray:

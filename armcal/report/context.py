@@ -5,8 +5,8 @@ from __future__ import annotations
 import base64
 import math
 
+from armcal.evaluate.multiple_testing import ALPHA
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
-from armcal.results.changes import ALPHA
 from armcal.results.plausibility import WHY, status_words
 from armcal.results.schema import TASK_TITLES
 from armcal.units import ANGLE_UNITS, factor

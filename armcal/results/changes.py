@@ -1,13 +1,15 @@
 """Parameter changes between two calibrations of one robot, in units of their combined uncertainty.
 
-Each parameter's change d = new - old is put in units of its combined standard uncertainty
-u = sqrt(u_old^2 + u_new^2) (the two calibrations independent: separate campaigns), z = d / u,
-with its two-sided p-value; the changes are flagged significant by Holm's step-down test at a
-family-wise ALPHA over every parameter compared, so that among forty unchanged parameters none
-is flagged by chance more often than ALPHA of the time. A parameter neither calibration gives an
-uncertainty for is compared by its change alone; values given in other units (mm and m, deg and rad) are converted
-to the later calibration's. Used by ``armcal compare`` and the certificate's
-history.
+A parameter is compared only where both calibrations identified it (in the base set, with an uncertainty): one
+that either side held (in the spec, or as redundant with another: two campaigns of one robot may carry a redundant
+pair's sum on different members) or does not have is "not comparable", with the side and the reason, and is never
+given a z: its value there is a convention, not a measurement. For each compared parameter the change
+d = new - old is put in units of its combined standard uncertainty u = sqrt(u_old^2 + u_new^2) (the two
+calibrations independent: separate campaigns), z = d / u, with its two-sided p-value; the changes are flagged
+significant by Holm's step-down test (Holm 1979, "A simple sequentially rejective multiple test procedure") at a
+family-wise ALPHA over every parameter compared, so that among forty unchanged parameters none is flagged by chance
+more often than ALPHA of the time. Values given in other units (mm and m, deg and rad) are converted to the later
+calibration's. Used by ``armcal compare`` and the certificate's history.
 """
 
 from __future__ import annotations
@@ -18,9 +20,8 @@ from dataclasses import dataclass, replace
 from scipy.stats import norm
 
 from armcal.errors import UserError
+from armcal.evaluate.multiple_testing import ALPHA, holm
 from armcal.units import ANGLE_UNITS, LENGTH_UNITS
-
-ALPHA = 0.01  # family-wise probability of flagging any unchanged parameter
 
 
 def check_same_robot(serial: str, other_serial: str, shown: str, other: str) -> None:
@@ -33,10 +34,20 @@ def check_same_robot(serial: str, other_serial: str, shown: str, other: str) -> 
 class Change:
     name: str
     unit: str
-    old: float
-    new: float
-    z: float | None  # None where neither calibration gives an uncertainty
+    old: float | None  # None: absent on that side
+    new: float | None
+    z: float | None  # None where the parameter is not comparable
     significant: bool = False
+    not_comparable: str | None = None  # which side did not identify it, and why
+
+
+def _unidentified(row: dict | None, reasons: dict[str, str]) -> str | None:
+    """Why one side's row is not an identified value with an uncertainty (None when it is)."""
+    if row is None:
+        return "absent"
+    if not row["free"]:
+        return reasons.get(row["name"], "held")
+    return None if row["std"] is not None else "not identified (no std)"
 
 
 def _in_unit(row: dict, unit: str) -> dict:
@@ -50,21 +61,31 @@ def _in_unit(row: dict, unit: str) -> dict:
     return {**row, "unit": unit, "value": row["value"] * scale, "std": None if row["std"] is None else row["std"] * scale}
 
 
-def changes(old: list[dict], new: list[dict]) -> list[Change]:
-    """Every parameter either calibration left free, with its change in combined standard uncertainties, the
-    significant ones flagged by Holm's step-down test at family-wise ALPHA."""
-    before = {p["name"]: p for p in old}
+def held_reasons(results: dict) -> dict[str, str]:
+    """Why a results.json held each parameter it held, by name (identifiability.fixed)."""
+    return {f["name"]: f["reason"] for f in results["identifiability"]["fixed"]}
+
+
+def changes(old: list[dict], new: list[dict], old_reasons: dict[str, str] | None = None,
+            new_reasons: dict[str, str] | None = None) -> list[Change]:
+    """Every parameter either calibration identified: with its change in combined standard uncertainties where both
+    did, the significant ones flagged by Holm's test at family-wise ALPHA; else "not comparable" and why (the sides'
+    ``reasons``, by name, say why a parameter was held: held_reasons)."""
+    before, after = {p["name"]: p for p in old}, {p["name"]: p for p in new}
     rows = []
-    for p in new:
-        q = before.get(p["name"])
-        if q is None or not (p["free"] or q["free"]):
+    for name in [*after, *(n for n in before if n not in after)]:
+        p, q = after.get(name), before.get(name)
+        if not any(row is not None and row["free"] for row in (p, q)):
             continue
-        q = _in_unit(q, p["unit"])
-        spread = math.hypot(p["std"] or 0.0, q["std"] or 0.0)
-        rows.append(Change(p["name"], p["unit"], q["value"], p["value"], (p["value"] - q["value"]) / spread if spread > 0 else None))
-    tested = sorted((i for i, c in enumerate(rows) if c.z is not None), key=lambda i: -abs(rows[i].z))
-    for rank, i in enumerate(tested):
-        if 2.0 * norm.sf(abs(rows[i].z)) > ALPHA / (len(tested) - rank):
-            break
-        rows[i] = replace(rows[i], significant=True)
+        unit = (p or q)["unit"]
+        q = q and _in_unit(q, unit)
+        why = [f"{side}: {reason}" for side, reason in (("old", _unidentified(q, old_reasons or {})), ("new", _unidentified(p, new_reasons or {}))) if reason]
+        spread = 0.0 if why else math.hypot(p["std"], q["std"])
+        if not why and spread == 0:
+            why = ["no uncertainty on either side"]
+        rows.append(Change(name, unit, q and q["value"], p and p["value"], None if why else (p["value"] - q["value"]) / spread,
+                           not_comparable="; ".join(why) or None))
+    tested = [i for i, c in enumerate(rows) if c.z is not None]
+    for i, rejected in zip(tested, holm([2.0 * norm.sf(abs(rows[i].z)) for i in tested])):
+        rows[i] = replace(rows[i], significant=rejected)
     return rows

@@ -2,8 +2,10 @@
 
 A calibration is a run's results.json (or its folder), a calibrated spec (a run's calibrated.yaml,
 whose identified values carry their ``std``), or such a spec at a git revision, ``PATH@REV``
-(armcal/gitrepo.py reads the repository as files). Each parameter's change d = new - old is put in
-units of its combined standard uncertainty and flagged by Holm's test (results/changes.py).
+(armcal/gitrepo.py reads the repository as files). Each parameter both identified has its change d = new - old put
+in units of its combined standard uncertainty and flagged by Holm's test; one that either side held or lacks is "not
+comparable" (results/changes.py). Two runs are also compared on what does not depend on which parameters carry a
+redundancy: their predicted tool and target positions at common poses (evaluate/position_changes.py).
 """
 
 from __future__ import annotations
@@ -12,12 +14,15 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from armcal.errors import UserError
+from armcal.evaluate.position_changes import POSES, position_changes, run_model
 from armcal.fileio import INPUT_LIMITS
 from armcal.gitrepo import file_at_revision
 from armcal.kinematics.params import parameter_set
 from armcal.report.render import read_results, results_file
-from armcal.results.changes import ALPHA, changes, check_same_robot
+from armcal.results.changes import ALPHA, changes, check_same_robot, held_reasons
 from armcal.spec.locations import yaml_path
 from armcal.spec import LoadedSpec, load_spec
 from armcal.spec.loader import spec_from_bytes
@@ -37,6 +42,8 @@ class Calibration:
     created: str | None
     run_id: str | None
     parameters: list[dict]  # {name, unit, value, std, free}, values in the spec's units
+    held: dict[str, str]  # why each held parameter was held, by name (a run's identifiability.fixed)
+    run: tuple[Path, dict] | None = None  # a run's folder (with its calibrated.yaml) and results.json
 
 
 def calibration(argument: str) -> Calibration:
@@ -47,10 +54,12 @@ def calibration(argument: str) -> Calibration:
     except OSError:  # a name no file can have (too long): a revision, or nothing
         exists = folder = False
     if folder or path.suffix == ".json":
-        results = read_results(results_file(path))
+        file = results_file(path)
+        results = read_results(file)
         robot = results["robot"]
+        run = (file.parent, results) if (file.parent / "calibrated.yaml").is_file() else None
         return Calibration(argument, robot["name"], robot["serial"], (robot["convention"], robot["dof"]), results["created"],
-                           results.get("run_id"), results["parameters"])
+                           results.get("run_id"), results["parameters"], held_reasons(results), run)
     if not exists and "@" in argument:
         file, _, revision = argument.rpartition("@")
         raw = file_at_revision(Path(file), revision)
@@ -81,7 +90,7 @@ def _from_spec(loaded: LoadedSpec, label: str) -> Calibration:
         })
     header = _CALIBRATED_BY.search(loaded.text)
     created, run = (header["created"], header["run"]) if header else (None, None)
-    return Calibration(label, spec.robot.name, spec.robot.serial, (spec.robot.convention, spec.robot.dof), created, run, rows)
+    return Calibration(label, spec.robot.name, spec.robot.serial, (spec.robot.convention, spec.robot.dof), created, run, rows, {})
 
 
 def _check_same_model(old: Calibration, new: Calibration) -> None:
@@ -96,23 +105,60 @@ def _when(c: Calibration) -> str:
     return f"{c.label}, " + (f"{c.created[:10]} (run {c.run_id})" if c.created else "not dated (no calibrated.yaml header)")
 
 
-def compare(old_argument: str, new_argument: str) -> tuple[str, int]:
-    """A plain-text table of the parameters of two calibrations of one robot and the number of significant changes."""
-    old, new = calibration(old_argument), calibration(new_argument)
-    check_same_robot(new.serial, old.serial, new.label, old.label)
-    _check_same_model(old, new)
-    lines = [
-        f"{new.name} ({new.serial}): {_when(old)} -> {_when(new)}",
-        f"{'parameter':32} {'old':>14} {'new':>14} {'change':>12} {'unit':8} {'z':>7}",
-    ]
-    found = changes(old.parameters, new.parameters)
+def _number(value: float | None, width: int, digits: str) -> str:
+    return f"{value:{width}.{digits}}" if value is not None else f"{'-':>{width}}"
+
+
+def _parameter_lines(old: Calibration, new: Calibration) -> tuple[list[str], int]:
+    lines = [f"{'parameter':32} {'old':>14} {'new':>14} {'change':>12} {'unit':8} {'z':>7}"]
+    found = changes(old.parameters, new.parameters, old.held, new.held)
     for c in found:
-        shown_z = f"{c.z:7.2f}" if c.z is not None else "      -"
-        lines.append(f"{c.name:32} {c.old:14.6g} {c.new:14.6g} {c.new - c.old:12.4g} {c.unit:8} {shown_z}" + ("  significant" if c.significant else ""))
+        change = c.new - c.old if c.z is not None else None
+        lines.append(f"{c.name:32} {_number(c.old, 14, '6g')} {_number(c.new, 14, '6g')} {_number(change, 12, '4g')} {c.unit:8} "
+                     f"{_number(c.z, 7, '2f')}" + ("  significant" if c.significant else f"  not comparable ({c.not_comparable})" if c.not_comparable else ""))
     significant = sum(c.significant for c in found)
     tested = sum(c.z is not None for c in found)
     lines.append(
-        f"{significant} significant change(s) among {tested} parameters with uncertainties (z = change / sqrt(u_old^2 + u_new^2); "
-        f"Holm's test, family-wise {ALPHA * 100:g} %: an unchanged robot shows one by chance in at most 1 of {1 / ALPHA:.0f} comparisons)"
+        f"{significant} significant change(s) among {tested} parameters both calibrations identified, {len(found) - tested} not comparable "
+        f"(z = change / sqrt(u_old^2 + u_new^2); Holm's test, family-wise {ALPHA * 100:g} %: an unchanged robot shows one by chance in "
+        f"at most 1 of {1 / ALPHA:.0f} comparisons)"
     )
-    return "\n".join(lines) + "\n", significant
+    return lines, significant
+
+
+def _position_lines(old: Calibration, new: Calibration) -> tuple[list[str], int]:
+    if old.run is None or new.run is None:
+        side = " and ".join(c.label for c in (old, new) if c.run is None)
+        return [f"Predicted positions not compared: {side} is not a run's results.json beside its calibrated.yaml, so its parameters' "
+                "covariance (results.json's correlation_matrix) is not known"], 0
+    models = run_model(*old.run), run_model(*new.run)
+    if None in models:
+        side = " and ".join(c.label for c, m in zip((old, new), models) if m is None)
+        return [f"Predicted positions not compared: {side} was written by an armcal that did not record the parameters' "
+                "correlation matrix (results.json: correlation_matrix); run it again to compare positions"], 0
+    found = position_changes(*models)
+    lines = [f"Predicted positions at {POSES} poses spread over the joint limits (Halton), robot base frame:",
+             f"{'point':32} {'largest change':>14} {'its std':>10} {'unit':4} {'largest chi2':>12} {'significant':>11}"]
+    for point in dict.fromkeys(c.point for c in found):
+        rows = [c for c in found if c.point == point]
+        largest = max(rows, key=lambda c: np.linalg.norm(c.change))
+        lines.append(f"{point:32} {np.linalg.norm(largest.change):14.4g} {np.linalg.norm(largest.std):10.3g} {'mm':4} "
+                     f"{max(c.chi2 for c in rows):12.2f} {sum(c.significant for c in rows):11d}")
+    for c in (c for c in found if c.significant):
+        lines.append(f"  {c.point} at pose {c.pose}: change ({', '.join(f'{v:.4g}' for v in c.change)}) mm, chi2 {c.chi2:.1f} on {c.dof} dof  significant")
+    significant = sum(c.significant for c in found)
+    lines.append(f"{significant} significant change(s) among {len(found)} predicted positions (chi2 = d' S^-1 d, S = J C J' of both runs "
+                 f"propagated from their parameters' covariance; Holm's test, family-wise {ALPHA * 100:g} %)")
+    return lines, significant
+
+
+def compare(old_argument: str, new_argument: str) -> tuple[str, int]:
+    """A plain-text table of two calibrations of one robot, parameter by parameter and by predicted positions, and the
+    number of significant changes."""
+    old, new = calibration(old_argument), calibration(new_argument)
+    check_same_robot(new.serial, old.serial, new.label, old.label)
+    _check_same_model(old, new)
+    parameters, significant = _parameter_lines(old, new)
+    positions, moved = _position_lines(old, new)
+    lines = [f"{new.name} ({new.serial}): {_when(old)} -> {_when(new)}", *parameters, "", *positions]
+    return "\n".join(lines) + "\n", significant + moved

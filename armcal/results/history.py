@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from armcal.results.changes import changes
+from armcal.results.changes import changes, held_reasons
 
 
 def history_entries(current: dict, earlier: list[tuple[str, dict]]) -> list[dict]:
     """One entry per earlier results (its source, as read), oldest first; changes against ``current``."""
     entries = []
     for source, old in sorted(earlier, key=lambda pair: pair[1]["created"]):
-        found = changes(old["parameters"], current["parameters"])
+        found = changes(old["parameters"], current["parameters"], held_reasons(old), held_reasons(current))
         validation = old["residuals"]["validation"]
         entries.append({
             "source": source,
@@ -20,7 +20,7 @@ def history_entries(current: dict, earlier: list[tuple[str, dict]]) -> list[dict
             "unit": old["device"]["unit"],
             "rms_calibration": old["residuals"]["calibration"]["after"]["rms"],
             "rms_validation": validation["after"]["rms"] if validation else None,
-            "compared": len(found),
+            "compared": sum(c.z is not None for c in found),
             "significant": [{"name": c.name, "unit": c.unit, "old": c.old, "new": c.new, "change": c.new - c.old, "z": c.z} for c in found if c.significant],
         })
     return entries

@@ -250,6 +250,14 @@ class NoiseCheck(_Frozen):
     causes: list[Cause] = []  # ranked, when the residuals are too large
 
 
+class CorrelationMatrix(_Frozen):
+    """Correlations of every pair of identified parameters (identify/uncertainty.py): with each parameter's std, the
+    covariance that propagates to predicted positions (evaluate/position_changes.py)."""
+
+    parameters: list[str]  # the identified parameters, in the fit's order
+    matrix: list[list[float]]  # within [-1, 1], 1 on the diagonal
+
+
 class HeldOutCheck(_Frozen):
     """Held-out residuals against noise plus the parameters' propagated uncertainty (evaluate/held_out_check.py)."""
 
@@ -367,6 +375,7 @@ class Results(_Frozen):
     noise: NoiseEstimate | None = None  # where the spec asks for noise from the data
     noise_check: NoiseCheck
     correlations: list[tuple[str, str, float]]
+    correlation_matrix: CorrelationMatrix | None = None  # null: results of an armcal before it was written
     campaign: Campaign
     report: ReportInfo
     acceptance: AcceptanceResult | None = None  # null: the spec gives no acceptance criterion

@@ -33,7 +33,8 @@ def _campaign(folder, geom, seed):
 
 
 def _flagged(stdout: str) -> list[str]:
-    return [line.split()[0] for line in stdout.splitlines() if line.endswith("significant")]
+    """The parameters flagged (the first block; the predicted positions follow a blank line)."""
+    return [line.split()[0] for line in stdout.split("\n\n")[0].splitlines() if line.endswith("significant")]
 
 
 @pytest.fixture(scope="module")

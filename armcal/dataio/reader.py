@@ -47,13 +47,20 @@ def data_text(path: Path) -> str:
     except UnicodeDecodeError as exc:
         line = raw[: exc.start].count(b"\n") + 1
         raise SpecError([Issue(path, line, None, "", "the file is not UTF-8 text (save it as UTF-8: Latin-1 or UTF-16 files are not read)")]) from None
+    return _bounded(path, text)
+
+
+def _bounded(path: Path, text: str) -> str:
+    """A table's text without its BOM, within MAX_SAMPLES rows."""
+    text = text.removeprefix("\ufeff")
     if text.count("\n") > MAX_SAMPLES + 1:
         raise SpecError([Issue(path, MAX_SAMPLES + 2, None, "", f"more than {MAX_SAMPLES} samples; split the campaign into files of fewer")])
     return text
 
 
-def _table(path: Path) -> tuple[list[str], list[list[str]]]:
-    text = data_text(path)
+def _table(path: Path, text: str | None = None) -> tuple[list[str], list[list[str]]]:
+    """Header and rows of the data file at ``path`` (or of its ``text``, already decoded)."""
+    text = data_text(path) if text is None else _bounded(path, text)
     lines = text.splitlines()
     if not lines or not lines[0].strip():
         raise SpecError([Issue(path, 1, None, "", "the file is empty; a header row is expected")])
@@ -61,11 +68,14 @@ def _table(path: Path) -> tuple[list[str], list[list[str]]]:
         raise SpecError(
             [Issue(path, 1, None, "", "columns are separated by ';': armcal reads comma-separated files with '.' as decimal mark")]
         )
-    reader = csv.reader(io.StringIO(text))
+    reader, rows, start = csv.reader(io.StringIO(text), strict=True), [], 1
     try:
-        rows = list(reader)
+        for row in reader:
+            rows.append(row)
+            start = reader.line_num + 1
     except csv.Error as exc:
-        raise SpecError([Issue(path, reader.line_num, None, "", f"not a CSV row the reader can take ({exc})")]) from None
+        hint = ": an unclosed quote?" if "end of data" in str(exc) else ""
+        raise SpecError([Issue(path, start, None, "", f"not a CSV row the reader can take ({exc}{hint})")]) from None
     return [h.strip() for h in rows[0]], rows[1:]
 
 
@@ -112,8 +122,10 @@ def _valid_names(spec: Spec, device) -> dict[str, set[str]]:
     return {"target": set(spec.robot.targets), **device.key_names(spec.robot)}
 
 
-def _parse(path: Path, spec: Spec, device, cols: Layout, header: list[str], rows: list[list[str]], problems: _Problems):
-    """Numeric columns (internal units, NaN if empty) and text columns of every row, checked."""
+def _parse(path: Path, spec: Spec, device, cols: Layout, header: list[str], rows: list[list[str]], problems: _Problems,
+           verbatim: tuple[str, ...] = ()):
+    """Numeric columns (internal units, NaN if empty) and text columns of every row, checked; text stripped of
+    surrounding spaces, but in the columns ``verbatim``."""
     index = {name: i for i, name in enumerate(header)}
     names = _valid_names(spec, device)
     links = device.target_aliases(spec.robot)
@@ -132,6 +144,7 @@ def _parse(path: Path, spec: Spec, device, cols: Layout, header: list[str], rows
             raw = row[index[column]].strip()
             if kind == "text":
                 raw = links.get(raw, raw) if column == "target" and raw not in names["target"] else raw
+                raw = row[index[column]] if column in verbatim else raw
                 text[column][r] = raw
                 if column in names and raw not in names[column]:
                     allowed = ", ".join(sorted(n for n in names[column] if n)) or "none"
@@ -156,6 +169,8 @@ def _parse(path: Path, spec: Spec, device, cols: Layout, header: list[str], rows
 
 def _check_limits(spec: Spec, values: dict, index: dict, r: int, problems: _Problems) -> None:
     for i, joint in enumerate(spec.robot.joints, start=1):
+        if f"q{i}" not in values:  # a table whose joint columns are optional (compensate's seeds)
+            continue
         value = values[f"q{i}"][r]
         low, high = joint.limits
         if not np.isnan(value) and not low <= value <= high:
@@ -165,13 +180,13 @@ def _check_limits(spec: Spec, values: dict, index: dict, r: int, problems: _Prob
             problems.add(r + 2, index[f"q{i}"] + 1, f"q{i}", f"{shown:g} {unit} lies outside joint {i}'s limits")
 
 
-def _rows(path: Path, spec: Spec, device, make_layout) -> tuple[Layout, dict, dict, int]:
+def _rows(path: Path, spec: Spec, device, make_layout, text: str | None = None, verbatim: tuple[str, ...] = ()) -> tuple[Layout, dict, dict, int]:
     problems = _Problems(path)
-    header, rows = _table(path)
+    header, rows = _table(path, text)
     cols = _header(header, make_layout(header), problems)
     if not rows:
         raise SpecError([Issue(path, 2, None, "", "the file has a header but no data rows")])
-    values, text = _parse(path, spec, device, cols, header, rows, problems)
+    values, text = _parse(path, spec, device, cols, header, rows, problems, verbatim)
     return cols, values, text, len(rows)
 
 
@@ -216,6 +231,15 @@ def read_pose_file(path: Path, spec: Spec) -> tuple[np.ndarray, tuple | None]:
     columns = Layout(device.key_columns if keyed else (), {**joints, **keys}, optional, device.optional_key_columns if keyed else ())
     cols, values, text, count = _rows(Path(path), spec, device, lambda header: columns)
     return np.stack([values[c] for c in joints], axis=1), _keys(cols, text, count) if keyed else None
+
+
+def read_table(path: Path, text: str, spec: Spec, make_layout, verbatim: tuple[str, ...] = ()) -> tuple[dict, dict, int]:
+    """(numeric columns in internal units, NaN where empty; text columns; rows) of a table other than measured data,
+    such as compensate's targets, by the rules of a data file: ``make_layout(header)`` says its columns, an unknown,
+    doubled or missing column, a short or long row, a cell that is no finite number, a joint value outside its limits
+    is a located problem; no content but an accepted column name is quoted. Text columns ``verbatim`` keep their spaces."""
+    _, values, text_columns, count = _rows(Path(path), spec, device_model(spec), make_layout, text, verbatim)
+    return values, text_columns, count
 
 
 def _unique_samples(samples: list[str], column: int, problems: _Problems) -> None:

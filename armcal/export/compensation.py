@@ -14,13 +14,15 @@ from __future__ import annotations
 
 import csv
 import io
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
 
+from armcal.dataio.columns import Layout, joint_columns
+from armcal.dataio.reader import CELL, read_table
 from armcal.effects.library import from_spec
 from armcal.effects.measurement import EffectSet, extras_size
-from armcal.errors import UserError
 from armcal.fileio import spreadsheet_safe
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel, compile_robot
@@ -31,39 +33,29 @@ from armcal.units import factor, to_internal
 
 COMPENSATED = ("encoder_scale", "gear_harmonic", "joint_compliance", "joint_coupling")  # functions of the joints alone
 POSE = ("x", "y", "z", "rx", "ry", "rz")
+POSE_KINDS = dict(zip(POSE, ("length",) * 3 + ("angle",) * 3))  # the spec's length and angle units
 FIXED_POINT_STEPS = 50
 FIXED_POINT_TOLERANCE = 1e-13  # rad or mm
 REACHED = 1e-4  # mm (and the axis columns' difference): a target the calibrated robot reaches
 
 
-def _targets(text: str, name: str, units, joints: list[tuple[str, str]]) -> tuple[list[str], np.ndarray, np.ndarray]:
-    """(labels, goals (N, 12) internal, seeds (N, n), NaN where none) of a targets CSV."""
-    rows = list(csv.DictReader(io.StringIO(text)))
-    if not rows:
-        raise UserError(f"{name}: no targets (a header with {', '.join(POSE)}, then one row per target)")
-    missing = [c for c in POSE if c not in rows[0]]
-    if missing:
-        raise UserError(f"{name}: line 1: missing column(s) {', '.join(missing)} (position and orientation of each target)")
-    labels, goals, seeds = [], [], []
-    for line, row in enumerate(rows, start=2):
-        kinds = [*(("length", units.length),) * 3, *(("angle", units.angle),) * 3]
-        kinds += [(joint_kind(kind), units.of(joint_kind(kind))) for _, kind in joints]
-        values = []
-        for column, (kind, unit) in zip([*POSE, *(j for j, _ in joints)], kinds):
-            if column not in POSE and row.get(column) in (None, ""):
-                values.append(np.nan)  # no seed for this joint
-                continue
-            try:
-                values.append(to_internal(float(row[column] or "nan"), kind, unit))
-            except (TypeError, ValueError) as exc:
-                raise UserError(f"{name}: line {line}, column {column}: {exc}") from None
-        x, y, z, rx, ry, rz = values[:6]
-        seed = values[6:]
-        T = np.array(ca.DM(xyz_zyx(x, y, z, rz, ry, rx)))
-        goals.append(ik.pose_goals(T[None])[0])
-        seeds.append(seed)
-        labels.append(row.get("name") or str(line - 1))
-    return labels, np.array(goals), np.array(seeds, dtype=float)
+def _targets(text: str, name: str, spec) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """(labels, goals (N, 12) internal, seeds (N, n), NaN where none) of a targets CSV, read as strictly as measured
+    data (dataio.reader.read_table): x, y, z, rx, ry, rz, optional name, and either no joint column or every one of
+    q1..qN filled in every row, within the joint limits (a seed elsewhere is a located mistake, not ignored)."""
+    joints = joint_columns(spec)
+
+    def layout(header: list[str]) -> Layout:
+        seeded = any(column in joints for column in header)
+        return Layout((), {**POSE_KINDS, **(joints if seeded else {})}, {"name": "text", **({} if seeded else joints)})
+
+    values, text_columns, count = read_table(Path(name), text, spec, layout, verbatim=("name",))  # written back as given
+    names = text_columns.get("name", [""] * count)
+    labels = [names[r] or str(r + 1) for r in range(count)]
+    x, y, z, rx, ry, rz = (values[c] for c in POSE)
+    goals = ik.pose_goals(np.array([np.array(ca.DM(xyz_zyx(*pose))) for pose in zip(x, y, z, rz, ry, rx)]))
+    seeds = np.stack([values.get(c, np.full(count, np.nan)) for c in joints], axis=1)
+    return labels, goals, seeds
 
 
 def _deviation(kinematics: KinematicModel, effects: EffectSet):
@@ -79,7 +71,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     spec = loaded.spec
     kinematics = compile_robot(spec.robot)
     joints = list(zip([f"q{i}" for i in range(1, kinematics.dof + 1)], kinematics.joint_types))
-    labels, goals, seeds = _targets(targets_text, targets_name, spec.robot.units, joints)
+    labels, goals, seeds = _targets(targets_text, targets_name, spec)
     effects = [from_spec(e) for e in spec.effects]
     left_out = sorted({e.id for e in effects if e.type not in COMPENSATED})
     deviation = _deviation(kinematics, EffectSet(tuple(e for e in effects if e.type in COMPENSATED)))
@@ -115,7 +107,8 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
             "unreachable: outside the joint limits" if found[i] and not inside[i] else
             "unreachable: no inverse-kinematics solution" if not found[i] else f"unreachable: {error[i]:.3g} mm off")
         if status != "ok":
-            unreached.append(f"{label} ({status[13:]})")
+            shown = label if CELL.fullmatch(label) else f"row {i + 1} (a name of {len(label)} characters)"  # no file content echoed
+            unreached.append(f"{shown} ({status[13:]})")
         row = [spreadsheet_safe(label), status]
         row += [f"{command[i, j] / factor(joint_kind(kind), units.of(joint_kind(kind))):.12g}" if found[i] else "" for j, (_, kind) in enumerate(joints)]
         row.append(f"{error[i]:.3g}" if found[i] else "")

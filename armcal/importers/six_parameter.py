@@ -4,17 +4,23 @@ Goswami's chain T = T1L T1J T2L ... TnJ T(n+1)L (3), each link Trans(x, y, z) Ro
 Rot(x, gamma), each joint Rot(z, theta) (Trans(0, 0, theta) when prismatic), theta = theta0 + k q (2): the
 chain's links[i - 1] is link i, its last fixed transform the spec's tool (link n + 1 left at the identity),
 theta0 = 0 and k = 1 fixed. Values in mm and deg with 15 significant digits (limits 12; below 1e-12, 0), so
-the spec's forward kinematics is the URDF's to 1e-9 mm.
+the spec's forward kinematics is the URDF's to 1e-9 mm. The text is checked as ``armcal validate`` checks the file:
+within a spec file's size and valid (a chain whose links add up beyond what armcal computes with is refused here, not
+written).
 """
 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 
+from armcal.errors import SpecError, UserError
+from armcal.fileio import INPUT_LIMITS
 from armcal.importers.urdf import UrdfChain
 from armcal.kinematics.transforms import pose_from_matrix
+from armcal.spec.loader import spec_from_bytes
 from armcal.units import snapped
 
 LINK = ("x", "y", "z", "alpha", "beta", "gamma")  # Trans(x, y, z) Rot(z, alpha) Rot(y, beta) Rot(x, gamma)
@@ -85,4 +91,18 @@ def six_parameter_spec(chain: UrdfChain, source: str, base: str, tip: str) -> st
         "  type: poses",
         "  count: 100",
     ]
-    return "\n".join(lines) + "\n"
+    return _loadable("\n".join(lines) + "\n", str(chain.path or source))
+
+
+def _loadable(text: str, source: str) -> str:
+    """``text``, checked to be a spec file every command reads: within the size of a spec file, and valid."""
+    raw, limit = text.encode("utf-8"), INPUT_LIMITS["spec"]
+    if len(raw) > limit:
+        raise UserError(f"{source}: the chain makes a spec of {len(raw) >> 10} KiB, more than the {limit >> 10} KiB a spec file may have "
+                        "(its names are long, or its joints many)")
+    try:
+        spec_from_bytes(raw, Path(source))
+    except SpecError as exc:
+        first = exc.issues[0]
+        raise UserError(f"{source}: the chain makes no valid spec: {first.field + ': ' if first.field else ''}{first.message}") from None
+    return text

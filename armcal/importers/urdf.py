@@ -9,11 +9,15 @@ climbs from BASE to a link above TIP, as from ROS-Industrial's base to base_link
 T = links[0] J_1(q_1) links[1] ... J_n(q_n) links[n], J_i = Rot(z, q_i) or Trans(0, 0, q_i), in mm.
 
 The file is only parsed, never run: no xacro, no DOCTYPE (so no entities to expand), meshes, inertias and
-everything else off the chain ignored.
+everything else off the chain ignored. What is read is checked whole: the joints must make one tree from a single
+root link (links and joints named once, each joint joining two declared links, no cycle), every number must be
+finite and of a magnitude armcal computes with (units.to_internal: at most 1e9 mm or rad; below 1e-30, rounding
+dust, read as 0), and the chain may have no more joints than a spec file holds (MAX_JOINTS).
 """
 
 from __future__ import annotations
 
+from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
@@ -22,11 +26,14 @@ from xml.parsers import expat
 import numpy as np
 
 from armcal.errors import UserError
-from armcal.fileio import read_input
+from armcal.fileio import INPUT_LIMITS, read_input
 from armcal.kinematics.transforms import compose, inverse, rot_x, rot_y, rot_z, trans
+from armcal.units import INTERNAL_UNIT, LARGEST, SMALLEST, factor, to_internal
 
 MOVING = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
 CONTINUOUS_LIMITS = (-2 * np.pi, 2 * np.pi)  # rad: a continuous joint's limits in the spec, one turn either way
+MAX_JOINTS = INPUT_LIMITS["spec"] // 128  # a spec file holds no more moving joints: each takes over 128 bytes of it
+LISTED = 12  # names a message lists before '... and N more'
 
 
 @dataclass(frozen=True)
@@ -43,6 +50,7 @@ class UrdfChain:
     joints: tuple[UrdfJoint, ...]
     links: tuple[np.ndarray, ...]  # n + 1 fixed transforms (mm): T = links[0] J_1 links[1] ... J_n links[n]
     merged: tuple[str, ...]  # the fixed joints multiplied into the links
+    path: Path | None = None  # the URDF file read
 
 
 class _Document:
@@ -50,6 +58,7 @@ class _Document:
 
     def __init__(self, path: Path, data: bytes):
         self.path, self.lines = path, {}
+        self.links: dict[str, ET.Element] = {}  # by name, once _tree checked them
         builder = ET.TreeBuilder()
         parser = expat.ParserCreate()
 
@@ -70,18 +79,31 @@ class _Document:
     def error(self, element: ET.Element, message: str) -> UserError:
         return UserError(f"{self.path}:{self.lines[element]}: {message}")
 
-    def numbers(self, element: ET.Element, attribute: str, count: int, default: str | None = None) -> np.ndarray:
+    def numbers(self, element: ET.Element, attribute: str, count: int, default: str | None = None,
+                kind: str = "scale", unit: str = "1") -> np.ndarray:
+        """``count`` numbers of an attribute, in ``unit`` of ``kind``, as internal values (mm, rad): each finite and at
+        most the magnitude armcal computes with (units.to_internal), below its smallest 0, so nothing overflows in the
+        spec written."""
         text = element.get(attribute, default)
         if text is None:
             raise self.error(element, f"<{element.tag}> needs the attribute {attribute}")
+        shown = f"<{element.tag} {attribute}=\"{text}\">" if len(text) <= 80 else f"<{element.tag} {attribute}> (a value of {len(text)} characters)"
         try:
             values = np.array([float(v) for v in text.split()])
         except ValueError:
             hint = " (a xacro expression? run xacro first)" if "$" in text else ""
-            raise self.error(element, f"<{element.tag} {attribute}=\"{text}\">: not {count} number{'s' if count > 1 else ''}{hint}") from None
+            raise self.error(element, f"{shown}: not {count} number{'s' if count > 1 else ''}{hint}") from None
         if len(values) != count or not np.all(np.isfinite(values)):
-            raise self.error(element, f"<{element.tag} {attribute}=\"{text}\">: not {count} finite number{'s' if count > 1 else ''}")
-        return values
+            raise self.error(element, f"{shown}: not {count} finite number{'s' if count > 1 else ''}")
+        internal = []
+        for value in values:
+            try:  # rounding dust (armcal's own URDF export writes 3.6e-35 m) is 0, as units.snapped writes it
+                internal.append(0.0 if abs(float(value) * factor(kind, unit)) < SMALLEST else to_internal(float(value), kind, unit))
+            except ValueError:
+                suffix, inside = (f" {unit}", f" {INTERNAL_UNIT[kind]}") if kind in ("length", "angle") else ("", "")
+                raise self.error(element, f"{shown}: {value:g}{suffix} lies outside what armcal computes with: "
+                                          f"magnitudes {SMALLEST:g} to {LARGEST:g}{inside}, or 0") from None
+        return np.array(internal)
 
 
 def read_urdf(path: Path, base: str, tip: str) -> UrdfChain:
@@ -93,9 +115,14 @@ def read_urdf(path: Path, base: str, tip: str) -> UrdfChain:
     xacro = next((e for e in root.iter() if e.tag.startswith("xacro:")), None)
     if xacro is not None:
         raise document.error(xacro, f"<{xacro.tag}>: this is a xacro file; armcal runs nothing, expand it first (xacro FILE > robot.urdf)")
+    chain = _joints_between(document, base, tip)
+    moving = sum(element.get("type") != "fixed" for element, _ in chain)
+    if moving > MAX_JOINTS:
+        raise UserError(f"{path}: {moving} joints from '{base}' to '{tip}': a spec file holds at most {MAX_JOINTS} "
+                        f"(it may have {INPUT_LIMITS['spec'] >> 10} KiB)")
     joints, links, merged = [], [], []
     pending = np.eye(4)
-    for element, upwards in _joints_between(document, base, tip):
+    for element, upwards in chain:
         name, kind = element.get("name", "?"), element.get("type")
         origin = _origin(document, element.find("origin"))
         if kind == "fixed":
@@ -119,50 +146,96 @@ def read_urdf(path: Path, base: str, tip: str) -> UrdfChain:
     if not joints:
         raise UserError(f"{path}: no revolute, continuous or prismatic joint between '{base}' and '{tip}'")
     links.append(pending)
-    return UrdfChain(root.get("name", "robot"), tuple(joints), tuple(links), tuple(merged))
+    return UrdfChain(root.get("name", "robot"), tuple(joints), tuple(links), tuple(merged), Path(path))
 
 
 def _joints_between(document: _Document, base: str, tip: str) -> list[tuple[ET.Element, bool]]:
     """(joint, upwards) from link ``base`` to link ``tip``: up from ``base`` through fixed joints (upwards True)
     to the first link above ``tip`` (ROS-Industrial's ``base`` hangs from ``base_link``), then down to ``tip``."""
-    links = [e.get("name") for e in document.root.findall("link")]
+    parent_joint = _tree(document)
     for name in (base, tip):
-        if name not in links:
-            raise UserError(f"{document.path}: no link '{name}'; the links are {', '.join(links) or '(none)'}")
-    parent_joint: dict[str, ET.Element] = {}
-    for joint in document.root.findall("joint"):
-        parent, child = joint.find("parent"), joint.find("child")
-        if parent is None or child is None or not parent.get("link") or not child.get("link"):
-            raise document.error(joint, f"joint '{joint.get('name', '?')}' needs <parent link=...> and <child link=...>")
-        if child.get("link") in parent_joint:
-            raise document.error(joint, f"link '{child.get('link')}' is the child of two joints (the other on line {document.lines[parent_joint[child.get('link')]]}); a URDF is a tree")
-        parent_joint[child.get("link")] = joint
+        if name not in document.links:
+            raise UserError(f"{document.path}: no link '{name}'; the links are {_listed(list(document.links))}")
     above_tip = _above(parent_joint, tip)
     names_above_tip = [link for link, _ in above_tip]
     up = []
-    for link, joint in _above(parent_joint, base):
+    for link, joint in _above(parent_joint, base):  # ends at the root, which is above tip too
         if link in names_above_tip:
             break
         up.append(joint)
-    else:
-        raise UserError(f"{document.path}: no chain from '{base}' to '{tip}': they are in two trees")
     moving = next((j for j in up if j.get("type") != "fixed"), None)
     if moving is not None:
         raise UserError(f"{document.path}: no chain from '{base}' to '{tip}': '{base}' is neither a link above '{tip}' "
-                        f"({', '.join(names_above_tip[1:]) or 'none'}) nor one fixed to such a link")
+                        f"({_listed(names_above_tip[1:]) if len(names_above_tip) > 1 else 'none'}) nor one fixed to such a link")
     down = [joint for _, joint in above_tip[: names_above_tip.index(link)]]
     return [(joint, True) for joint in up] + [(joint, False) for joint in down[::-1]]
 
 
+def _tree(document: _Document) -> dict[str, ET.Element]:
+    """Each link's parent joint (the root link has none), the URDF checked to be one tree from a single root:
+    links and joints named once, each joint joining two declared links, no link the child of two joints or of
+    itself, one link that is no joint's child and every other link below it (no cycle)."""
+    declared: dict[tuple[str, str], ET.Element] = {}
+    for element in (*document.root.findall("link"), *document.root.findall("joint")):
+        name = element.get("name")
+        if not name:
+            raise document.error(element, f"<{element.tag}> needs a name")
+        if (element.tag, name) in declared:
+            raise document.error(element, f"{element.tag} '{name}' is declared twice (first on line {document.lines[declared[element.tag, name]]})")
+        declared[element.tag, name] = element
+    document.links = {name: element for (tag, name), element in declared.items() if tag == "link"}
+    parent_joint: dict[str, ET.Element] = {}
+    children: dict[str, list[str]] = defaultdict(list)
+    for joint in document.root.findall("joint"):
+        name = joint.get("name")
+        parent, child = (joint.find(role) for role in ("parent", "child"))
+        if parent is None or child is None or not parent.get("link") or not child.get("link"):
+            raise document.error(joint, f"joint '{name}' needs <parent link=...> and <child link=...>")
+        parent, child = parent.get("link"), child.get("link")
+        for role, link in (("parent", parent), ("child", child)):
+            if link not in document.links:
+                raise document.error(joint, f"joint '{name}': its {role} link '{link}' is no <link> of the file")
+        if parent == child:
+            raise document.error(joint, f"joint '{name}' joins link '{child}' to itself; a URDF is a tree")
+        if child in parent_joint:
+            raise document.error(joint, f"link '{child}' is the child of two joints (the other on line {document.lines[parent_joint[child]]}); a URDF is a tree")
+        parent_joint[child] = joint
+        children[parent].append(child)
+    roots = [link for link in document.links if link not in parent_joint]
+    if len(roots) > 1:
+        raise UserError(f"{document.path}: {len(roots)} links are no joint's child ({_listed(roots)}); a URDF is one tree from a single root link")
+    below, stack = set(roots), list(roots)
+    while stack:
+        for child in children[stack.pop()]:
+            below.add(child)
+            stack.append(child)
+    link = next((link for link in document.links if link not in below), None)
+    if link is not None:  # below no root: up from it, the joints go round a cycle
+        on_path = []
+        while link not in on_path:
+            on_path.append(link)
+            link = parent_joint[link].find("parent").get("link")
+        cycle = on_path[on_path.index(link):][::-1]  # parent to child
+        order = {name: i for i, name in enumerate(document.links)}
+        first = min(range(len(cycle)), key=lambda i: order[cycle[i]])  # from its first declared link
+        cycle = cycle[first:] + cycle[:first]
+        where = f"none of them below the root link '{roots[0]}'" if roots else "every link is a joint's child, so none is the root"
+        raise document.error(parent_joint[cycle[0]], f"the joints form a cycle ({' -> '.join([*cycle, cycle[0]])}: {where}); a URDF is a tree")
+    return parent_joint
+
+
+def _listed(names: list[str]) -> str:
+    """Names for a message: the first LISTED of them, then how many more."""
+    more = f", ... ({len(names) - LISTED} more)" if len(names) > LISTED else ""
+    return ", ".join(names[:LISTED]) + more if names else "(none)"
+
+
 def _above(parent_joint: dict[str, ET.Element], link: str) -> list[tuple[str, ET.Element | None]]:
-    """(link, the joint whose child it is) from ``link`` up to the root (whose joint is None)."""
-    out = []
-    while len(out) <= len(parent_joint):
-        joint = parent_joint.get(link)
-        out.append((link, joint))
-        if joint is None:
-            break
-        link = joint.find("parent").get("link")
+    """(link, the joint whose child it is) from ``link`` up to the root (whose joint is None); the links are a tree."""
+    out = [(link, parent_joint.get(link))]
+    while out[-1][1] is not None:
+        link = out[-1][1].find("parent").get("link")
+        out.append((link, parent_joint.get(link)))
     return out
 
 
@@ -170,8 +243,8 @@ def _origin(document: _Document, element: ET.Element | None) -> np.ndarray:
     """Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll) of an <origin> (identity when absent), in mm."""
     if element is None:
         return np.eye(4)
-    x, y, z = document.numbers(element, "xyz", 3, "0 0 0") * 1000.0
-    roll, pitch, yaw = document.numbers(element, "rpy", 3, "0 0 0")
+    x, y, z = document.numbers(element, "xyz", 3, "0 0 0", "length", "m")
+    roll, pitch, yaw = document.numbers(element, "rpy", 3, "0 0 0", "angle", "rad")
     return compose(trans(x, y, z), rot_z(yaw), rot_y(pitch), rot_x(roll))
 
 
@@ -195,8 +268,9 @@ def _limits(document: _Document, joint: ET.Element, kind: str) -> tuple[float, f
     name, limit = joint.get("name", "?"), joint.find("limit")
     if limit is None:
         raise document.error(joint, f"joint '{name}' ({kind}) has no <limit>; URDF requires one")
-    (low,), (high,) = document.numbers(limit, "lower", 1, "0"), document.numbers(limit, "upper", 1, "0")
+    quantity = ("length", "m") if kind == "prismatic" else ("angle", "rad")
+    (low,), (high,) = document.numbers(limit, "lower", 1, "0", *quantity), document.numbers(limit, "upper", 1, "0", *quantity)
     if low >= high:
-        raise document.error(limit, f"joint '{name}': the lower limit {low:g} is not below the upper limit {high:g}")
-    scale = 1000.0 if kind == "prismatic" else 1.0
-    return low * scale, high * scale
+        scale = 1000.0 if kind == "prismatic" else 1.0
+        raise document.error(limit, f"joint '{name}': the lower limit {low / scale:g} is not below the upper limit {high / scale:g}")
+    return low, high

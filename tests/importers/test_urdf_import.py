@@ -67,7 +67,7 @@ BAD_URDFS = [  # (URDF text, --base, --tip, expected message after "FILE:")
     (ARM, "base_link", "ghost", " no link 'ghost'; the links are base_link, link_1, link_2, link_3, link_4, link_5, link_6, flange, tool0, base, camera_link"),
     (ARM, "tool0", "base_link", " no chain from 'tool0' to 'base_link': 'tool0' is neither a link above 'base_link' (none) nor one fixed to such a link"),
     (ARM, "tool0", "camera_link", " no chain from 'tool0' to 'camera_link': 'tool0' is neither a link above 'camera_link' (link_3, link_2, link_1, base_link) nor one fixed to such a link"),
-    ("<robot name='r'><link name='a'/><link name='b'/></robot>", "a", "b", " no chain from 'a' to 'b': they are in two trees"),
+    ("<robot name='r'><link name='a'/><link name='b'/></robot>", "a", "b", " 2 links are no joint's child (a, b); a URDF is one tree from a single root link"),
     (ARM.replace('<axis xyz="0 1 0"/>', '<axis xyz="0 1 0"/><mimic joint="joint_a2"/>'), "base_link", "tool0",
      "39: joint 'joint_a3' mimics another joint; armcal's joints are independent (mimic joints are not imported)"),
     (ARM.replace('name="joint_a4" type="revolute"', 'name="joint_a4" type="floating"'), "base_link", "tool0",
@@ -105,3 +105,81 @@ def test_the_command_refuses_a_large_file_and_replaces_nothing(tmp_path):
     existing.write_text("mine")
     again = armcal_cli("import-urdf", URDFS / "gantry.urdf", "--base", "world", "--tip", "tcp", "--out", existing)
     assert again.returncode == 1 and "--force" in again.stderr and existing.read_text() == "mine"
+
+
+def _arm(origin='xyz="0.1 0 0.2"', limit='lower="-1" upper="1"', extra="", joints=3, kind="revolute", axis="0 0 1"):
+    """A URDF of a chain l0 -> l1 -> ... of ``joints`` joints j0, j1, ..., each with the given origin, limit and axis."""
+    links = "".join(f'<link name="l{i}"/>' for i in range(joints + 1))
+    body = "".join(f'<joint name="j{i}" type="{kind}"><origin {origin}/><parent link="l{i}"/><child link="l{i + 1}"/>'
+                   f'<axis xyz="{axis}"/><limit {limit}/></joint>\n' for i in range(joints))
+    return f'<robot name="r">\n{links}\n{body}{extra}</robot>'
+
+
+OUT_OF_RANGE = [  # (URDF text, --tip, expected message after "FILE:"): numbers beyond armcal's range, graphs no tree
+    (_arm(origin='rpy="0 0 1e309"'), "l2", "3: <origin rpy=\"0 0 1e309\">: not 3 finite numbers"),
+    (_arm(origin='xyz="0 0 0" rpy="nan 0 0"'), "l2", "3: <origin rpy=\"nan 0 0\">: not 3 finite numbers"),
+    (_arm(origin='xyz="0 -2e6 0"'), "l2", "3: <origin xyz=\"0 -2e6 0\">: -2e+06 m lies outside what armcal computes with: magnitudes 1e-30 to 1e+09 mm, or 0"),
+    (_arm(limit='lower="-1" upper="1e30"'), "l2", "3: <limit upper=\"1e30\">: 1e+30 rad lies outside what armcal computes with: magnitudes 1e-30 to 1e+09 rad, or 0"),
+    (_arm(limit='lower="-3e6" upper="0"', kind="prismatic"), "l2", "3: <limit lower=\"-3e6\">: -3e+06 m lies outside what armcal computes with: magnitudes 1e-30 to 1e+09 mm, or 0"),
+    (_arm(axis="1e300 1e300 0"), "l2", "3: <axis xyz=\"1e300 1e300 0\">: 1e+300 lies outside what armcal computes with: magnitudes 1e-30 to 1e+09, or 0"),
+    (_arm(extra='<link name="loose"/>'), "l2", " 2 links are no joint's child (l0, loose); a URDF is one tree from a single root link"),
+    (_arm(extra='<joint name="s" type="fixed"><parent link="l2"/><child link="l2"/></joint>'), "l2", "6: joint 's' joins link 'l2' to itself; a URDF is a tree"),
+    (_arm(extra='<link name="b"/><link name="c"/><joint name="bc" type="fixed"><parent link="b"/><child link="c"/></joint>'
+                '<joint name="cb" type="fixed"><parent link="c"/><child link="b"/></joint>'), "l2",
+     "6: the joints form a cycle (b -> c -> b: none of them below the root link 'l0'); a URDF is a tree"),
+    (_arm().replace('<child link="l3"/>', '<child link="l0"/>').replace('<link name="l3"/>', ""), "l2",
+     "5: the joints form a cycle (l0 -> l1 -> l2 -> l0: every link is a joint's child, so none is the root); a URDF is a tree"),
+    (_arm(extra='<link name="l1"/>'), "l2", "6: link 'l1' is declared twice (first on line 2)"),
+    (_arm().replace('name="j2"', 'name="j0"'), "l2", "5: joint 'j0' is declared twice (first on line 3)"),
+    (_arm().replace('<child link="l3"/>', '<child link="ghost"/>'), "l2", "5: joint 'j2': its child link 'ghost' is no <link> of the file"),
+]
+
+
+@pytest.mark.parametrize("text, tip, message", OUT_OF_RANGE, ids=["inf-rpy", "nan-rpy", "2e6-m", "1e30-rad", "prismatic-3e6-m", "axis-1e300",
+                                                                  "two-roots", "self-loop", "cycle-beside-root", "rootless-cycle",
+                                                                  "link-twice", "joint-twice", "undeclared-link"])
+def test_a_number_out_of_range_or_a_graph_that_is_no_tree_is_refused(tmp_path, text, tip, message):
+    """Issue 30 class 7: every number import-urdf reads is finite and within 1e9 mm or rad (units.to_internal), and
+    the joints are one tree from a single root: anything else is one located message, never a spec."""
+    from armcal.errors import UserError
+    from armcal.importers.urdf import read_urdf
+
+    path = tmp_path / "bad.urdf"
+    path.write_text(text)
+    with pytest.raises(UserError) as raised:
+        read_urdf(path, "l0", tip)
+    assert str(raised.value) == f"{path}:{message}"
+
+
+def test_what_import_urdf_writes_validates_or_nothing_is_written(tmp_path):
+    """The written spec is one `armcal validate` loads: dust below 1e-30 m reads as 0 and origins near the largest
+    length armcal computes with are written as read; fixed origins that add up beyond it, a chain of more joints
+    than a spec file holds and one whose spec would exceed 256 KiB end with exit 1 and no file."""
+    from armcal.importers.urdf import MAX_JOINTS
+
+    edge = tmp_path / "edge.urdf"
+    edge.write_text(_arm(origin='xyz="9e5 3e-35 -1e-40" rpy="1e-300 0 0"', limit='lower="-1e6" upper="1e6"'))
+    out = tmp_path / "edge.yaml"
+    done = armcal_cli("import-urdf", edge, "--base", "l0", "--tip", "l3", "--out", out)
+    assert done.returncode == 0, done.stderr
+    robot = load_spec(out).spec.robot
+    chain = compile_robot(robot)
+    np.testing.assert_allclose(chain.limits[0], [-1e6, 1e6])
+    np.testing.assert_allclose(chain.tool_poses(np.zeros((1, 3)))[0][:3, 3], [2.7e9 / 1000 * 1000, 0, 0], rtol=1e-12)
+    assert armcal_cli("validate", out).returncode == 0
+
+    def compact(joints):  # the shortest URDF of a chain: about 110 bytes a joint
+        links = "".join(f'<link name="{i}"/>' for i in range(joints + 1))
+        body = "".join(f'<joint name="j{i}" type="revolute"><parent link="{i}"/><child link="{i + 1}"/><limit upper="1"/></joint>' for i in range(joints))
+        return f'<robot name="r">{links}{body}</robot>'
+
+    cases = {"sum.urdf": (_arm(origin='xyz="6e5 0 0"', kind="fixed").replace('name="j2" type="fixed"', 'name="j2" type="revolute"'), "3",
+                          "the chain makes no valid spec: robot.links[0].x: 1800000000 lies outside what armcal computes with"),
+             "many.urdf": (compact(MAX_JOINTS + 1), str(MAX_JOINTS + 1), f"{MAX_JOINTS + 1} joints from 'l0' to '{MAX_JOINTS + 1}': a spec file holds at most {MAX_JOINTS}"),
+             "large.urdf": (compact(1800), "1800", "the chain makes a spec of ")}
+    for name, (text, tip, message) in cases.items():
+        path, spec = tmp_path / name, tmp_path / f"{name}.yaml"
+        path.write_text(text.replace('"0"', '"l0"') if name != "sum.urdf" else text)
+        done = armcal_cli("import-urdf", path, "--base", "l0", "--tip", f"l{tip}" if name == "sum.urdf" else tip, "--out", spec)
+        assert done.returncode == 1 and "Traceback" not in done.stderr and not spec.exists(), done.stderr
+        assert done.stderr.startswith(f"error: {path}: {message}"), done.stderr

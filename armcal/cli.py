@@ -223,13 +223,14 @@ def montecarlo(
         str | None,
         typer.Option("--poses", help="Also predict held-out accuracy for these numbers of calibration poses, planned vs random (e.g. 15,30,60).", metavar="N,N,..."),
     ] = None,
+    force: Annotated[bool, typer.Option("--force", help="Replace an earlier study in the output folder (the whole folder's set).")] = False,
 ) -> None:
     """Stone's Monte-Carlo study: N simulated robots identified, then design-model vs calibrated control on the grid task."""
     from armcal.montecarlo_command import montecarlo as run_study, pose_counts
     from armcal.terminal import study_summary
 
     with _progress_bar("robots, then designs") as show:
-        study = run_study(spec, runs, sweep or [], seed, out, workers, scheduler, show, pose_counts(poses))
+        study = run_study(spec, runs, sweep or [], seed, out, workers, scheduler, show, pose_counts(poses), force)
     typer.echo(study_summary(study))
 
 

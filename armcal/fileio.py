@@ -55,17 +55,32 @@ def _size(count: int) -> str:
 
 
 def output_folder(path: Path) -> Path:
-    """``path``, checked as a folder to write into: a user error if a file is in the way."""
+    """``path``, checked as a folder to write into: a user error if a file, a dangling link or something
+    unreadable is in the way (a link to nothing is never followed: armcal would create a folder where it points)."""
     path = Path(path)
-    blocked = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()), None)
+    try:
+        dangling = _dangling_link_on_the_way(path)
+        if dangling is not None:
+            raise UserError(f"{dangling} is a link to {os.readlink(dangling)}, which does not exist; armcal does not follow it: "
+                            "remove the link or choose another --out")
+        blocked = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()), None)
+    except OSError as exc:  # a folder that may not be searched, a name too long, a loop of links
+        raise UserError(f"cannot write into {path}: {exc.strerror or exc}") from None
     if blocked is not None:
         raise UserError(f"{blocked} is a file; the output needs a folder there")
     return path
 
 
+def _dangling_link_on_the_way(folder: Path) -> Path | None:
+    """The first of ``folder`` and its parents that is a link to nothing, if any."""
+    return next((p for p in reversed((folder, *folder.parents)) if p.is_symlink() and not p.exists()), None)
+
+
 def refuse_replacing(targets, inputs, force: bool) -> None:
-    """Nothing existing is replaced without ``force``, and an input of the command never is."""
+    """Nothing existing is replaced without ``force``, an input of the command never is, and no two of the files one
+    command writes are one file (``plan --out x.json`` would write its CSV, then its JSON over it)."""
     sources = {Path(p).resolve() for p in inputs}
+    distinct_outputs(targets)
     for target in map(Path, targets):
         try:
             if target.resolve() in sources:
@@ -73,10 +88,33 @@ def refuse_replacing(targets, inputs, force: bool) -> None:
             if target.is_dir():
                 raise UserError(f"{target} is a folder; give the name of the file to write")
             _refuse_special(target)
-            if target.exists() and not force:
+            if target.is_symlink() and not target.exists() and not force:
+                raise UserError(f"{target} is a link to {os.readlink(target)}, which does not exist; armcal never follows it: "
+                                "use --force to replace the link itself with the file, or choose another --out")
+            if os.path.lexists(target) and not force:
                 raise UserError(f"{target} exists; use --force to replace it")
         except OSError as exc:  # a name too long, a loop of links, a folder that may not be searched
             raise UserError(f"cannot write {target}: {exc.strerror or exc}") from None
+
+
+def distinct_outputs(targets) -> None:
+    """A user error when two of the files one command writes are one file: the same path spelled twice
+    (``x.json``, ``./x.json``), one a link to the other, two hard links, or names that differ only in case (one
+    file on macOS and Windows)."""
+    seen: dict = {}
+    for target in map(Path, targets):
+        try:
+            keys = [("path", str(target.resolve()).casefold())]
+            if target.exists():
+                info = target.stat()
+                keys.append(("inode", info.st_dev, info.st_ino))
+        except OSError as exc:
+            raise UserError(f"cannot write {target}: {exc.strerror or exc}") from None
+        for key in keys:
+            other = seen.setdefault(key, target)
+            if other is not target:
+                raise UserError(f"{other} and {target} are one file (the same path, a link to it, or a name differing only "
+                                "in case): this command writes both, one would overwrite the other; choose another --out")
 
 
 def write_text_atomic(path: Path, text: str) -> None:
@@ -85,7 +123,8 @@ def write_text_atomic(path: Path, text: str) -> None:
 
 
 def _refuse_special(path: Path) -> None:
-    """A user error when something other than a regular file (a device, a pipe, a socket) stands at ``path``."""
+    """A user error when something other than a regular file (a device, a pipe, a socket) stands at ``path`` (or at
+    the end of the link standing there)."""
     if path.exists() and not path.is_file() and not path.is_dir():
         raise UserError(f"{path} is not a regular file (a device, a pipe or a socket); armcal writes only regular files, "
                         "--force or not")
@@ -97,6 +136,10 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
     temporary = None
     try:
         _refuse_special(path)
+        dangling = _dangling_link_on_the_way(path.parent)
+        if dangling is not None:
+            raise UserError(f"cannot write {path}: {dangling} is a link to {os.readlink(dangling)}, which does not exist; "
+                            "armcal does not follow it: remove the link or choose another --out")
         path.parent.mkdir(parents=True, exist_ok=True)
         handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
         with os.fdopen(handle, "wb") as stream:

@@ -2,7 +2,20 @@
 
 git itself is never run, because any git command may start programs the repository's own
 configuration names (core.fsmonitor, clean and smudge filters, hooks), and a spec's folder is
-not trusted that far. Every read is bounded (objects, chains of refs and deltas).
+not trusted that far. Nor is a repository's content: every read (one ObjectStore, one ``file_at_revision``) is
+bounded in memory and time, and a file that breaks a bound is refused as unreadable (RepositoryLimit, a
+ValueError), never worked through:
+
+- an object inflates to at most _MAX_OBJECT bytes, and its pack entry's (or loose header's) declared size must be
+  the size it inflates to (a size is checked before anything is inflated);
+- all inflated bytes of one read together (objects, deltas, every delta's result) stay below _MAX_READ, so a small
+  pack of a large blob behind many deltas stops after a few of them;
+- a delta chain is at most _MAX_DEPTH deep (git writes 50 unless told otherwise; an offset delta's base lies before
+  it in the pack);
+- a pack index must be a version 2 index whose fan-out table never decreases and whose size is exactly what the
+  object count it declares needs; its pack must start with git's header and the same object count, every offset
+  inside the pack; all indexes of a repository together are at most _MAX_INDEXES bytes;
+- one read ends after READ_SECONDS (a generous bound: a real read takes milliseconds).
 """
 
 from __future__ import annotations
@@ -13,6 +26,7 @@ import os
 import re
 import stat
 import struct
+import time
 import zlib
 from pathlib import Path
 
@@ -20,9 +34,13 @@ from armcal.errors import UserError
 
 OBJECT_ID = re.compile(r"[0-9a-f]{40}|[0-9a-f]{64}")  # SHA-1 or SHA-256 repositories
 UNREADABLE = (OSError, ValueError, IndexError, struct.error, zlib.error)
-_MAX_OBJECT = 1 << 26  # bytes; commits and trees are far smaller
-_MAX_CHAIN = 1000  # symbolic refs, tags and pack deltas followed before giving up
-_MAX_INDEX = 1 << 28  # bytes of a pack index (about ten million objects)
+_MAX_OBJECT = 1 << 24  # bytes of one object: a spec is at most 256 KiB, commits and trees far smaller
+_MAX_READ = 1 << 26  # bytes inflated by one read, all objects, deltas and delta results together
+_MAX_CHAIN = 1000  # symbolic refs and tags followed before giving up
+_MAX_DEPTH = 250  # deltas of one object (git's default depth is 50, --aggressive's was 250)
+_MAX_INDEXES = 1 << 28  # bytes of a repository's pack indexes together (about ten million objects)
+_MAX_IDS = 1000  # objects listed under one id prefix (more: the prefix is ambiguous anyway)
+READ_SECONDS = 20.0  # wall time of one read
 _PACK_TYPES = {1: "commit", 2: "tree", 3: "blob", 4: "tag"}
 _OFS_DELTA, _REF_DELTA = 6, 7
 
@@ -56,6 +74,28 @@ def resolve_head(git_dir: Path, common: Path, name: str = "HEAD") -> str | None:
         if not name.startswith("refs/") or ".." in name.split("/"):
             return None
     return None
+
+
+class RepositoryLimit(ValueError):
+    """A repository file breaks a bound of the reader (module docstring): refused, not read further."""
+
+
+class _Budget:
+    """What one read may still inflate, and until when it may run."""
+
+    def __init__(self):
+        self.left, self.deadline = _MAX_READ, time.monotonic() + READ_SECONDS
+
+    def spend(self, count: int, where: object) -> None:
+        self.left -= count
+        if self.left < 0:
+            raise RepositoryLimit(f"{where}: reading it inflates more than {_MAX_READ >> 20} MiB (a delta chain of a "
+                                  "large object?); refused")
+        self.tick(where)
+
+    def tick(self, where: object) -> None:
+        if time.monotonic() > self.deadline:
+            raise RepositoryLimit(f"{where}: reading the repository took more than {READ_SECONDS:g} s; refused")
 
 
 def tree_path(path: Path, work_tree: Path) -> list[bytes]:
@@ -184,47 +224,147 @@ def blob_id(content: bytes, id_size: int) -> bytes:
 
 
 class ObjectStore:
-    """Loose and packed objects of a repository and of its alternates (objects/info/alternates)."""
+    """Loose and packed objects of a repository and of its alternates (objects/info/alternates); one store is one
+    read, bounded as the module docstring says."""
 
     def __init__(self, common: Path):
+        self.budget = _Budget()
         objects = common / "objects"
         alternates = objects / "info" / "alternates"
         extra = read_bytes(alternates).decode().splitlines() if alternates.is_file() else []
         self.folders = [objects, *((objects / line).resolve() for line in extra if line and not line.startswith("#"))]
-        self.packs = [(read_bytes(i, _MAX_INDEX), i.with_suffix(".pack")) for f in self.folders for i in sorted((f / "pack").glob("*.idx"))]
         config = common / "config"
         sha256 = config.is_file() and re.search(rb"objectformat\s*=\s*sha256", read_bytes(config), re.IGNORECASE)
         self.id_size = 32 if sha256 else 20
+        self.packs, total = [], 0
+        for index_path in (i for f in self.folders for i in sorted((f / "pack").glob("*.idx"))):
+            index = read_bytes(index_path, _MAX_INDEXES - total)
+            total += len(index)
+            self.packs.append((_checked_index(index, index_path, self.id_size), index_path.with_suffix(".pack")))
+            self.budget.tick(index_path)
+        self._checked_packs: set[Path] = set()
 
     def read(self, oid: bytes) -> tuple[str, bytes]:
         """(type, content) of an object."""
+        self.budget.tick(f"object {oid.hex()}")
         for folder in self.folders:
             loose = folder / oid.hex()[:2] / oid.hex()[2:]
             if loose.is_file():
-                header, _, content = _inflate(io.BytesIO(read_bytes(loose))).partition(b"\0")
-                return header.split(b" ")[0].decode(), content
+                return _loose(loose, self.budget)
         for index, pack in self.packs:
             offset = _pack_offset(index, oid)
             if offset is not None:
-                return _unpack(index, pack, offset, len(oid))
+                return self._unpack(index, pack, offset)
         raise ValueError(f"object {oid.hex()} not found")
 
     def expand(self, prefix: str) -> list[bytes]:
-        """The ids of every object whose hex id starts with ``prefix`` (lower-case hex, 4 digits or more)."""
+        """The ids of every object whose hex id starts with ``prefix`` (lower-case hex, 4 digits or more; at most
+        _MAX_IDS of them)."""
         found = set()
         for folder in self.folders:
             loose = folder / prefix[:2]
             if loose.is_dir():
-                found.update(bytes.fromhex(prefix[:2] + f.name) for f in loose.iterdir() if f.name.startswith(prefix[2:]) and OBJECT_ID.fullmatch(prefix[:2] + f.name))
+                for f in loose.iterdir():
+                    if f.name.startswith(prefix[2:]) and OBJECT_ID.fullmatch(prefix[:2] + f.name) and len(found) < _MAX_IDS:
+                        found.add(bytes.fromhex(prefix[:2] + f.name))
+                    self.budget.tick(loose)
         for index, _ in self.packs:
             found.update(_pack_ids(index, prefix, self.id_size))
-        return sorted(found)
+        return sorted(found)[:_MAX_IDS]
+
+    def _unpack(self, index: bytes, pack: Path, offset: int) -> tuple[str, bytes]:
+        """(type, content) of the pack entry at ``offset``, its chain of deltas applied."""
+        deltas = []
+        with _open(pack) as stream:
+            end = os.fstat(stream.fileno()).st_size - self.id_size  # the pack's checksum follows its last entry
+            if pack not in self._checked_packs:
+                _check_pack_header(stream.read(12), pack, _index_count(index))
+                self._checked_packs.add(pack)
+            for depth in range(_MAX_DEPTH + 1):
+                if not 12 <= offset < end:
+                    raise RepositoryLimit(f"{pack}: an entry at offset {offset} lies outside the pack ({end + self.id_size} bytes)")
+                stream.seek(offset)
+                where = f"{pack} (the entry at offset {offset})"
+                kind, declared = _entry_header(stream, pack, offset)
+                if kind in _PACK_TYPES:
+                    content = _inflate(stream, self.budget, where, declared)
+                    break
+                if kind == _OFS_DELTA:
+                    distance = _base_distance(stream)
+                    if not 0 < distance <= offset - 12:
+                        raise RepositoryLimit(f"{pack}: the delta at offset {offset} names a base outside the pack")
+                    offset -= distance
+                elif kind == _REF_DELTA:
+                    offset = _pack_offset(index, stream.read(self.id_size))
+                    if offset is None:
+                        raise ValueError("delta base outside the pack")
+                else:
+                    raise ValueError(f"pack entry type {kind}")
+                deltas.append(_inflate(stream, self.budget, where, declared))
+            else:
+                raise RepositoryLimit(f"{pack}: a delta chain deeper than {_MAX_DEPTH} deltas; refused")
+        for delta in reversed(deltas):
+            content = _patched(content, delta, self.budget, pack)
+        return _PACK_TYPES[kind], content
+
+
+def _loose(path: Path, budget: _Budget) -> tuple[str, bytes]:
+    """(type, content) of a loose object file, its header's size checked against its content."""
+    with _open(path) as stream:
+        header, _, content = _inflate(stream, budget, path).partition(b"\0")
+    kind, _, size = header.partition(b" ")
+    if kind.decode(errors="replace") not in _PACK_TYPES.values() or not size.isdigit() or int(size) != len(content):
+        raise RepositoryLimit(f"{path}: not a loose object (its header declares {header[:40]!r} for {len(content)} bytes)")
+    return kind.decode(), content
+
+
+def _entry_header(stream: io.BufferedIOBase, pack: Path, offset: int) -> tuple[int, int]:
+    """A pack entry's type and declared (inflated) size, refused above _MAX_OBJECT before anything is inflated."""
+    byte = stream.read(1)[0]
+    kind, size, shift = (byte >> 4) & 7, byte & 15, 4
+    while byte & 0x80:
+        byte = stream.read(1)[0]
+        size |= (byte & 0x7F) << shift
+        shift += 7
+        if shift > 70:
+            break
+    if size > _MAX_OBJECT:
+        raise RepositoryLimit(f"{pack}: the entry at offset {offset} declares {size} bytes, more than the "
+                              f"{_MAX_OBJECT >> 20} MiB an object may have; refused")
+    return kind, size
+
+
+def _index_count(index: bytes) -> int:
+    return struct.unpack_from(">I", index, 8 + 4 * 255)[0]
+
+
+def _checked_index(index: bytes, path: Path, id_size: int) -> bytes:
+    """``index`` after checking it is a sane version 2 pack index: fan-out never decreasing, size as declared."""
+    if index[:8] != b"\377tOc\0\0\0\2" or len(index) < 8 + 1024 + 2 * id_size:
+        raise RepositoryLimit(f"{path}: not a version 2 pack index")
+    fanout = struct.unpack_from(">256I", index, 8)
+    falls = next((i for i in range(255) if fanout[i] > fanout[i + 1]), None)
+    if falls is not None:
+        raise RepositoryLimit(f"{path}: its fan-out table decreases at entry {falls + 1} ({fanout[falls]} > "
+                              f"{fanout[falls + 1]}); not a pack index git wrote")
+    count = fanout[255]
+    needed = 8 + 1024 + count * (id_size + 8) + 2 * id_size  # ids, CRCs, offsets, two checksums
+    large = (len(index) - needed) // 8
+    if len(index) < needed or (len(index) - needed) % 8 or large > count:
+        raise RepositoryLimit(f"{path}: {len(index)} bytes do not fit the {count} objects its fan-out table declares")
+    return index
+
+
+def _check_pack_header(header: bytes, pack: Path, count: int) -> None:
+    if len(header) < 12 or header[:4] != b"PACK" or struct.unpack(">I", header[4:8])[0] not in (2, 3):
+        raise RepositoryLimit(f"{pack}: not a git pack (its header)")
+    declared = struct.unpack(">I", header[8:12])[0]
+    if declared != count:
+        raise RepositoryLimit(f"{pack}: declares {declared} objects, its index {count}")
 
 
 def _pack_offset(index: bytes, oid: bytes) -> int | None:
-    """Where a pack holds ``oid``, by binary search in its version 2 index."""
-    if index[:8] != b"\377tOc\0\0\0\2":
-        raise ValueError("unsupported pack index")
+    """Where a pack holds ``oid``, by binary search in its version 2 index (checked by _checked_index)."""
     fanout = struct.unpack_from(">256I", index, 8)
     count, names = fanout[255], 8 + 1024
     low, high = fanout[oid[0] - 1] if oid[0] else 0, fanout[oid[0]]
@@ -241,44 +381,24 @@ def _pack_offset(index: bytes, oid: bytes) -> int | None:
 
 
 def _pack_ids(index: bytes, prefix: str, size: int) -> list[bytes]:
-    """The ids a version 2 pack index lists under a hex prefix (the fan-out table bounds the scan)."""
+    """The ids (at most _MAX_IDS) a version 2 pack index lists under a hex prefix: a binary search to the first,
+    then those that follow while they match."""
     fanout = struct.unpack_from(">256I", index, 8)
     first = int(prefix[:2], 16)
     names = 8 + 1024
     low, high = fanout[first - 1] if first else 0, fanout[first]
-    ids = (index[names + i * size : names + (i + 1) * size] for i in range(low, high))
-    return [oid for oid in ids if oid.hex().startswith(prefix)]
-
-
-def _unpack(index: bytes, pack: Path, offset: int, id_size: int) -> tuple[str, bytes]:
-    """(type, content) of the pack entry at ``offset``, its chain of deltas applied."""
-    deltas = []
-    with _open(pack) as stream:
-        for _ in range(_MAX_CHAIN):
-            stream.seek(offset)
-            byte = stream.read(1)[0]
-            kind = (byte >> 4) & 7
-            while byte & 0x80:  # the entry's size: not needed, the zlib stream ends itself
-                byte = stream.read(1)[0]
-            if kind in _PACK_TYPES:
-                content = _inflate(stream)
-                break
-            if kind == _OFS_DELTA:
-                offset -= _base_distance(stream)
-            elif kind == _REF_DELTA:
-                offset = _pack_offset(index, stream.read(id_size))
-                if offset is None:
-                    raise ValueError("delta base outside the pack")
-            else:
-                raise ValueError(f"pack entry type {kind}")
-            deltas.append(_inflate(stream))
-            if sum(map(len, deltas)) > _MAX_OBJECT:
-                raise ValueError("delta chain too large")
-        else:
-            raise ValueError("delta chain too long")
-    for delta in reversed(deltas):
-        content = _patched(content, delta)
-    return _PACK_TYPES[kind], content
+    smallest = bytes.fromhex(prefix.ljust(2 * size, "0"))
+    name = lambda i: index[names + i * size : names + (i + 1) * size]  # noqa: E731
+    start, stop = low, high
+    while start < stop:
+        middle = (start + stop) // 2
+        start, stop = (middle + 1, stop) if name(middle) < smallest else (start, middle)
+    ids = []
+    for i in range(start, min(high, start + _MAX_IDS)):
+        if not name(i).hex().startswith(prefix):
+            break
+        ids.append(name(i))
+    return ids
 
 
 def _base_distance(stream: io.BufferedIOBase) -> int:
@@ -291,12 +411,17 @@ def _base_distance(stream: io.BufferedIOBase) -> int:
     return distance
 
 
-def _patched(base: bytes, delta: bytes) -> bytes:
-    """``base`` with git's delta applied: copies of base ranges and inserted literal bytes."""
+def _patched(base: bytes, delta: bytes, budget: _Budget, pack: Path) -> bytes:
+    """``base`` with git's delta applied: copies of base ranges and inserted literal bytes (its result's size
+    checked against the object bound and spent from the read's budget before it is built)."""
     base_size, position = _size(delta, 0)
     size, position = _size(delta, position)
-    if base_size != len(base) or size > _MAX_OBJECT:
+    if base_size != len(base):
         raise ValueError("delta does not fit its base")
+    if size > _MAX_OBJECT:
+        raise RepositoryLimit(f"{pack}: a delta declares a result of {size} bytes, more than the {_MAX_OBJECT >> 20} MiB "
+                              "an object may have; refused")
+    budget.spend(size, pack)
     out = bytearray()
     while position < len(delta) and len(out) <= size:
         op = delta[position]
@@ -319,26 +444,34 @@ def _patched(base: bytes, delta: bytes) -> bytes:
 
 
 def _size(data: bytes, position: int) -> tuple[int, int]:
-    """A little-endian base-128 size at ``position``, and the position after it."""
+    """A little-endian base-128 size at ``position`` (at most 10 bytes), and the position after it."""
     value = shift = 0
-    while True:
+    while shift < 70:
         byte = data[position]
         value |= (byte & 0x7F) << shift
         position, shift = position + 1, shift + 7
         if not byte & 0x80:
             return value, position
+    raise ValueError("a delta size of more than 10 bytes")
 
 
-def _inflate(stream: io.BufferedIOBase) -> bytes:
-    """The zlib stream at the stream's position, refused beyond _MAX_OBJECT bytes."""
+def _inflate(stream: io.BufferedIOBase, budget: _Budget, where: object, declared: int | None = None) -> bytes:
+    """The zlib stream at the stream's position, refused beyond _MAX_OBJECT bytes (or the read's budget); with
+    ``declared``, it must inflate to exactly that many bytes."""
+    limit = _MAX_OBJECT if declared is None else declared
     inflater, out = zlib.decompressobj(), bytearray()
     while not inflater.eof:
-        chunk = stream.read(1 << 16)
+        chunk = inflater.unconsumed_tail or stream.read(1 << 16)
         if not chunk:
             raise ValueError("truncated object")
-        out += inflater.decompress(chunk, _MAX_OBJECT + 1 - len(out))
-        if len(out) > _MAX_OBJECT:
-            raise ValueError("object too large")
+        piece = inflater.decompress(chunk, limit + 1 - len(out))
+        out += piece
+        budget.spend(len(piece), where)
+        if len(out) > limit:
+            raise RepositoryLimit(f"{where}: inflates to more than the {limit} bytes "
+                                  f"{'its header declares' if declared is not None else 'an object may have'}; refused")
+    if declared is not None and len(out) != declared:
+        raise RepositoryLimit(f"{where}: inflates to {len(out)} bytes, its header declares {declared}; refused")
     return bytes(out)
 
 

@@ -5,7 +5,8 @@ trends of a sweep), montecarlo.csv (every robot's indices) and SVG plots, each
 file whole or not at all, once everything is computed. With ``poses`` it also
 predicts the held-out accuracy against the number of calibration poses, planned
 (D-optimal, ``armcal plan``) and random (N and 3N), on the study's robots
-(evaluate/plan_accuracy.py), and plots it.
+(evaluate/plan_accuracy.py), and plots it; a number of poses whose readings cannot determine the base
+parameters is refused before the study starts (no design of it could be identified: nothing to compare).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import numpy as np
 from armcal import __version__
 from armcal.errors import UserError
 from armcal.fileio import output_folder
+from armcal.output_set import output_set, run_id
 from armcal.evaluate.grid import ORIENTATION, grid_indices, grid_placement, index_kind, unobserved_orientation
 from armcal.evaluate.montecarlo import ChunkResult, check_points, chunks, run_chunk
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve, accuracy_label
@@ -34,14 +36,12 @@ from armcal.identify.threads import processors
 from armcal.parallel import run_tasks
 from armcal.planner import DEFAULT_CANDIDATES
 from armcal.procedures.tasks import grid_task
-from armcal.report.render import write_files
-from armcal.report.plan_plots import PLAN_CURVE
-from armcal.report.study_plots import SPREAD, TREND, study_plots
+from armcal.report.study_plots import study_plots
 from armcal.spec import load_spec
 from armcal.units import from_internal
 
 INDEX_NAMES = list(grid_indices(grid_task(), grid_task()))
-STUDY_PLOTS = {SPREAD, TREND, PLAN_CURVE}
+STUDY_FILES = ("montecarlo.json", "montecarlo.csv")  # with the SVG plots: what a study's folder holds
 
 
 @dataclass(frozen=True)
@@ -61,10 +61,12 @@ def montecarlo(
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
     poses: list[int] = (),
+    force: bool = False,
 ) -> Study:
     """Run ``runs`` simulated robots at every point of the (at most one) sweep; write the study's files.
 
-    ``poses``: numbers of calibration poses at which to compare planned and random poses' held-out accuracy."""
+    ``poses``: numbers of calibration poses at which to compare planned and random poses' held-out accuracy.
+    ``force``: replace an earlier study in ``out_dir`` (never a folder holding anything else)."""
     if runs < 2:
         raise UserError(f"--runs {runs}: a study needs at least 2 robots for a standard deviation")
     if len(sweeps) > 1:
@@ -73,10 +75,21 @@ def montecarlo(
     loaded = load_spec(spec_path)
     spec, folder = loaded.spec, loaded.path.parent.resolve()  # absolute: workers may run elsewhere
     out_dir = output_folder(out_dir if out_dir is not None else folder / "out" / loaded.path.stem / "montecarlo")
+    with output_set(out_dir, [loaded.path], force, STUDY_FILES, "the earlier study (its whole folder)", STUDY_FILES[0]) as publish:
+        summary, files = _study(loaded, runs, sweeps, seed, workers, scheduler, progress, list(poses), started)
+        written = publish(files, run_id([loaded.path]))
+    return Study(summary, Path(out_dir), written)
+
+
+def _study(loaded, runs: int, sweeps, seed: int | None, workers: int | None, scheduler: str | None, progress,
+           poses: list[int], started: float) -> tuple[dict, dict[str, str]]:
+    """The study's summary and its files (name -> text), everything computed before anything is written."""
+    spec, folder = loaded.spec, loaded.path.parent.resolve()
     sweep = parse_sweep(sweeps[0], spec) if sweeps else None
     points = [variant(spec, sweep.variable, value) for value in sweep.values] if sweep else [spec]
     seed = (spec.simulate.seed if spec.simulate else 0) if seed is None else seed
     first = check_points(points, folder)  # the grid, solved where the study's robots will be sent
+    plan_study = _identifying_plan_study(spec, folder, poses, seed) if poses else None  # before the robots: said at once
     grid = {**grid_placement(first.grid, spec.robot.units), **first.control.describe()}
     workers = workers or processors()
     size = max(1, min(25, math.ceil(runs * len(points) / (4 * workers))))
@@ -88,7 +101,7 @@ def montecarlo(
             progress(done[0], total)
 
     results = run_tasks(run_chunk, chunks(points, folder, runs, seed, size), scheduler, workers, robots_done)
-    accuracy = _accuracy_vs_poses(spec, folder, list(poses), runs, seed, progress) if poses else None
+    accuracy = _accuracy_vs_poses(spec, plan_study, poses, runs, progress) if poses else None
     elapsed = time.perf_counter() - started
     design, calibrated, converged = _collect(results, len(points), runs)
     statistics = [index_statistics(INDEX_NAMES, design[k], calibrated[k], spec.robot.units) for k in range(len(points))]
@@ -116,10 +129,7 @@ def montecarlo(
         "montecarlo.csv": _robots_csv(sweep, design, calibrated, spec.robot.units),
         **study_plots(summary),
     }
-    written = write_files(out_dir, files)
-    for stale in STUDY_PLOTS - set(files):  # a plot of an earlier study in this folder would mislead
-        (out_dir / stale).unlink(missing_ok=True)
-    return Study(summary, out_dir, written)
+    return summary, files
 
 
 MAX_POSE_COUNT = 10_000  # poses of one study design (its 3N random poses and candidates grow with it)
@@ -139,13 +149,31 @@ def pose_counts(text: str | None) -> list[int]:
     return sorted(set(counts))
 
 
-def _accuracy_vs_poses(spec, folder: Path, counts: list[int], runs: int, seed: int, progress) -> dict:
-    """Held-out accuracy of N planned vs N and 3N random calibration poses, mean over the study's robots."""
+def _identifying_plan_study(spec, folder: Path, counts: list[int], seed: int) -> PlanStudy:
+    """The plan study of ``--poses``, after checking that each number of poses gives at least as many readings as
+    there are base parameters (fewer cannot identify the model in any design: a user error, before the study)."""
     study = PlanStudy(spec, folder, max(DEFAULT_CANDIDATES, 3 * max(counts)), seed)
+    blocks = study.information.blocks
+    per_pose = int(np.count_nonzero(np.abs(blocks).sum(axis=2), axis=1).max()) if blocks.size else 0
+    base = len(study.information.base)
+    least = math.ceil(base / per_pose) if per_pose else None
+    short = [c for c in counts if least is None or c < least]
+    if short:
+        need = f"give at least {least} poses" if least else "the instrument reads none of the candidate poses"
+        raise UserError(f"--poses {','.join(map(str, counts))}: {short[0]} poses give at most {short[0] * per_pose} readings "
+                        f"({per_pose} a pose), which cannot determine the {base} base parameters in any design; {need}")
+    return study
+
+
+def _accuracy_vs_poses(spec, study: PlanStudy, counts: list[int], runs: int, progress) -> dict:
+    """Held-out accuracy of N planned vs N and 3N random calibration poses, mean over the study's robots; a design
+    no robot could be identified from has None, and ``not_identified`` says which and why."""
     curve = accuracy_curve(study, counts, runs, factors=(1, 3), progress=progress)
     definition, unit, scale = accuracy_label(spec, study)
     values = curve.values()
     scaled = lambda means: [None if v is None else v * scale for v in means]  # noqa: E731
+    missing = [f"{name} {count}" for name, series in (("planned", values["planned"]["D"]), *((f"random {f}x", m) for f, m in values["random"].items()))
+               for count, v in zip(values["counts"], series) if v is None]
     return {
         "definition": definition,
         "unit": unit,
@@ -155,6 +183,8 @@ def _accuracy_vs_poses(spec, folder: Path, counts: list[int], runs: int, seed: i
         "counts": values["counts"],
         "planned": {c: scaled(m) for c, m in values["planned"].items()},
         "random": {f: scaled(m) for f, m in values["random"].items()},
+        "not_identified": {"designs": missing, "reason": "the design's readings left base parameters undetermined on some "
+                           "robot (or, for 3N random poses, the candidates are fewer than 3N)"} if missing else None,
     }
 
 

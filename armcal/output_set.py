@@ -22,6 +22,7 @@ import hashlib
 import json
 import os
 import shutil
+import stat
 import tempfile
 from collections.abc import Iterable
 from contextlib import contextmanager
@@ -53,13 +54,21 @@ def stamp_svg(svg: str, identifier: str) -> str:
 
 
 @contextmanager
-def output_set(folder: Path, inputs: Iterable[Path], force: bool):
-    """Lock ``folder`` for a run and check it may take a new set; yields ``publish(files, identifier)``."""
+def output_set(folder: Path, inputs: Iterable[Path], force: bool, names: Iterable[str] = (),
+               replaced: str = "the certificate and the whole output set", main: str = "certificate.pdf"):
+    """Lock ``folder`` for a run and check it may take a new set; yields ``publish(files, identifier)``.
+
+    ``names``: files an earlier set written before manifests existed may hold besides ARTIFACT_SUFFIXES (e.g.
+    montecarlo.csv); ``replaced`` and ``main`` word the refusal without ``force`` ("MAIN exists; use --force to
+    replace REPLACED")."""
     folder = output_folder(folder).absolute()
     _refuse_inputs(folder, inputs)
     with _locked(folder):
-        _repair(folder)
-        _check_replaceable(folder, force)
+        try:
+            _repair(folder)
+            _check_replaceable(folder, force, frozenset(names), replaced, main)
+        except OSError as exc:  # a folder that may not be read, a leftover that cannot be moved back
+            raise UserError(f"cannot write the output set into {folder}: {exc.strerror or exc}") from None
         yield lambda files, identifier: _publish(folder, files, identifier)
 
 
@@ -152,23 +161,24 @@ def _repair(folder: Path) -> None:
         shutil.rmtree(leftover, ignore_errors=True)
 
 
-def _check_replaceable(folder: Path, force: bool) -> None:
-    if not folder.exists():
+def _check_replaceable(folder: Path, force: bool, names: frozenset = frozenset(),
+                       replaced: str = "the certificate and the whole output set", main: str = "certificate.pdf") -> None:
+    if not os.path.lexists(folder):
         return
     entries = sorted(p.name for p in folder.iterdir())
     if not entries:
         return
-    foreign = [n for n in entries if not _is_artifact(folder / n)]
+    foreign = [n for n in entries if not _is_artifact(folder / n, names)]
     if foreign and not (folder / MANIFEST).is_file():
         shown = ", ".join(foreign[:5]) + (" ..." if len(foreign) > 5 else "")
         raise UserError(f"{folder} holds files that are not an armcal output set ({shown}); choose an empty or new --out")
     if not force:
-        existing = "certificate.pdf" if (folder / "certificate.pdf").exists() else entries[0]
-        raise UserError(f"{folder / existing} exists; use --force to replace the certificate and the whole output set")
+        existing = main if (folder / main).exists() else entries[0]
+        raise UserError(f"{folder / existing} exists; use --force to replace {replaced}")
 
 
-def _is_artifact(path: Path) -> bool:
-    return path.is_file() and not path.is_symlink() and (path.suffix in ARTIFACT_SUFFIXES or path.name == MANIFEST)
+def _is_artifact(path: Path, names: frozenset = frozenset()) -> bool:
+    return path.is_file() and not path.is_symlink() and (path.suffix in ARTIFACT_SUFFIXES or path.name in names or path.name == MANIFEST)
 
 
 def _publish(folder: Path, files: dict[str, bytes | str], identifier: str) -> list[Path]:
@@ -182,14 +192,27 @@ def _publish(folder: Path, files: dict[str, bytes | str], identifier: str) -> li
         for name, content in files.items():
             data = content.encode("utf-8") if isinstance(content, str) else content
             (staging / name).write_bytes(data)
+            os.chmod(staging / name, _kept_mode(folder / name, 0o666))
             manifest["files"][name] = hashlib.sha256(data).hexdigest()
         (staging / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-        os.chmod(staging, 0o777 & ~current_umask())  # mkdtemp makes 0700; give the usual mode
+        os.chmod(staging / MANIFEST, _kept_mode(folder / MANIFEST, 0o666))
+        os.chmod(staging, _kept_mode(folder, 0o777))  # mkdtemp makes 0700: the replaced folder's mode, else the usual
         _swap_in(staging, folder)
     except OSError as exc:
         shutil.rmtree(staging, ignore_errors=True)
         raise UserError(f"cannot write the output set into {folder}: {exc.strerror or exc}; the previous set is unchanged") from None
     return [folder / name for name in files]
+
+
+def _kept_mode(replaced: Path, usual: int) -> int:
+    """The permission bits of the file or folder a new one replaces (not through a link), else ``usual`` less the
+    umask: --force replaces the content, not who may read it."""
+    try:
+        info = os.lstat(replaced)
+    except FileNotFoundError:
+        return usual & ~current_umask()
+    same_kind = stat.S_ISDIR(info.st_mode) if usual == 0o777 else stat.S_ISREG(info.st_mode)
+    return stat.S_IMODE(info.st_mode) & 0o777 if same_kind else usual & ~current_umask()
 
 
 def _swap_in(staging: Path, folder: Path) -> None:

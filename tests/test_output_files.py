@@ -102,3 +102,57 @@ def test_a_file_that_is_no_data_file_is_not_echoed(tmp_path):
     done = armcal_cli("run", tmp_path / "spec.yaml", "--no-pdf")
     assert done.returncode == 1 and "armcal-secret" not in done.stdout + done.stderr, done.stderr
     assert "a value of" in done.stderr and "is not a number" in done.stderr
+
+
+# -- issue 30 class 3: one command's outputs, links to nothing, modes under --force ---------------------------------
+
+
+def test_a_dangling_link_at_out_is_kept_without_force_and_replaced_not_followed_with_it(tmp_path):
+    """A link to nothing in a subfolder counts as an existing file: refused without --force; with it the link itself
+    becomes the file and nothing is created where it pointed."""
+    (tmp_path / "sub").mkdir()
+    out = tmp_path / "sub" / "spec.yaml"
+    out.symlink_to(tmp_path / "elsewhere" / "planted.yaml")
+    refused = armcal_cli(*_writers(out)["new"][:-1])
+    assert refused.returncode == 1 and "Traceback" not in refused.stderr, refused.stderr
+    assert f"{out} is a link to" in refused.stderr and "does not exist" in refused.stderr and "--force" in refused.stderr
+    assert out.is_symlink() and not (tmp_path / "elsewhere").exists()
+    forced = armcal_cli(*_writers(out)["new"])
+    assert forced.returncode == 0, forced.stderr
+    assert not out.is_symlink() and out.is_file() and not (tmp_path / "elsewhere").exists()
+
+
+def test_a_dangling_link_on_the_way_to_out_is_refused_with_force(tmp_path):
+    (tmp_path / "gone").symlink_to(tmp_path / "nowhere")
+    done = armcal_cli(*_writers(tmp_path / "gone" / "spec.yaml")["new"])
+    assert done.returncode == 1 and "Traceback" not in done.stderr and done.stderr.count("\n") == 1, done.stderr
+    assert f"{tmp_path / 'gone'} is a link to" in done.stderr and not (tmp_path / "nowhere").exists()
+
+
+def test_the_writer_keeps_modes_under_any_umask_and_never_follows_a_dangling_link(tmp_path):
+    from armcal.errors import UserError
+    from armcal.fileio import distinct_outputs, refuse_replacing, write_bytes_atomic
+
+    previous = os.umask(0)
+    try:
+        kept = tmp_path / "kept.csv"
+        kept.write_text("old\n")
+        kept.chmod(0o600)
+        write_bytes_atomic(kept, b"new\n")
+        fresh = tmp_path / "fresh.csv"
+        write_bytes_atomic(fresh, b"new\n")
+        assert (stat.S_IMODE(kept.stat().st_mode), stat.S_IMODE(fresh.stat().st_mode)) == (0o600, 0o666)  # umask 0: 0o666
+    finally:
+        os.umask(previous)
+    link = tmp_path / "link.csv"
+    link.symlink_to(tmp_path / "target.csv")
+    with pytest.raises(UserError, match="does not exist"):
+        refuse_replacing([link], [], force=False)
+    refuse_replacing([link], [], force=True)
+    write_bytes_atomic(link, b"x\n")
+    assert not link.is_symlink() and not (tmp_path / "target.csv").exists()
+    os.link(kept, tmp_path / "hard.csv")
+    for pair in ([kept, tmp_path / "." / "kept.csv"], [kept, tmp_path / "hard.csv"], [tmp_path / "a.JSON", tmp_path / "a.json"]):
+        with pytest.raises(UserError, match="are one file"):
+            distinct_outputs(pair)
+    distinct_outputs([tmp_path / "a.csv", tmp_path / "a.json"])

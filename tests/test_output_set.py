@@ -230,3 +230,43 @@ def test_a_blocked_or_read_only_output_folder_is_a_user_error(workspace, tmp_pat
         assert result.returncode == 1 and "Traceback" not in result.stderr and "Read-only file system" in result.stderr, result.stderr
     finally:
         subprocess.run(["umount", str(disk)], capture_output=True)
+
+
+def test_a_replaced_set_keeps_its_files_and_folders_modes(tmp_path):
+    """--force replaces the content, not who may read it (issue 30 class 3), whatever the umask."""
+    import stat
+
+    from armcal.errors import UserError
+    from armcal.output_set import output_set
+
+    spec = tmp_path / "spec.yaml"
+    spec.write_text("x\n")
+    folder = tmp_path / "out"
+    with output_set(folder, [spec], force=False) as publish:
+        publish({"results.json": "{}\n", "plot.svg": "<svg/>\n"}, "a")
+    (folder / "results.json").chmod(0o600)
+    folder.chmod(0o750)
+    previous = os.umask(0)
+    try:
+        with pytest.raises(UserError, match="use --force"):
+            with output_set(folder, [spec], force=False):
+                pass
+        with output_set(folder, [spec], force=True) as publish:
+            publish({"results.json": "{\"b\": 1}\n", "plot.svg": "<svg/>\n", "new.svg": "<svg/>\n"}, "b")
+    finally:
+        os.umask(previous)
+    modes = {p.name: stat.S_IMODE(p.stat().st_mode) for p in folder.iterdir()}
+    assert (folder / "results.json").read_text() == '{"b": 1}\n'
+    assert stat.S_IMODE(folder.stat().st_mode) == 0o750 and modes["results.json"] == 0o600
+    assert modes["new.svg"] == 0o666  # a new file: the usual mode less the umask (0 here)
+
+
+def test_a_dangling_link_as_the_output_folder_is_refused_with_force(tmp_path):
+    from armcal.errors import UserError
+    from armcal.output_set import output_set
+
+    (tmp_path / "out").symlink_to(tmp_path / "nowhere")
+    with pytest.raises(UserError, match="is a link to .*which does not exist"):
+        with output_set(tmp_path / "out", [], force=True):
+            pass
+    assert (tmp_path / "out").is_symlink() and not (tmp_path / "nowhere").exists()

@@ -12,6 +12,7 @@ transform with T^T . T and T^-1 . T^-T).
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -197,3 +198,29 @@ def test_a_theodolite_plan_keeps_its_scale_bar_and_reports_angles(tmp_path):
     held = json.loads(out.with_suffix(".json").read_text())["held_out_accuracy"]
     assert held["unit"] == "arcsec" and held["planned"]["not_identified"] == 0
     assert 0.5 < held["planned"]["mean"] / held["linearised_planned"] < 1.5  # noise 2 arcsec: about a few arcsec
+
+
+@pytest.mark.parametrize("how", ["the same name", "./ and a suffix", "a link", "a hard link", "case"])
+def test_plan_outputs_that_are_one_file_are_refused_with_force_before_anything_is_written(kuka, tmp_path, monkeypatch, how):
+    """POSES.csv and POSES.json beside it are two files, or the plan is refused (issue 30 class 3)."""
+    from armcal.errors import UserError
+    from armcal.planner import plan_command
+
+    monkeypatch.chdir(tmp_path)
+    out = {"the same name": tmp_path / "p.json", "./ and a suffix": "./sub/../p.json", "a link": tmp_path / "l.csv",
+           "a hard link": tmp_path / "h.csv", "case": tmp_path / "P.JSON"}[how]
+    if how == "a link":
+        (tmp_path / "l.csv").symlink_to("l.json")  # POSES.csv would be written through to POSES.json
+    if how == "a hard link":
+        (tmp_path / "h.json").write_text("keep\n")
+        os.link(tmp_path / "h.json", tmp_path / "h.csv")
+    before = sorted(p.name for p in tmp_path.iterdir())
+    with pytest.raises(UserError, match="are one file"):
+        plan_command(kuka["tracker"], 5, 300, None, Path(out), True, 0, None)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_cli_plan_out_x_json_is_one_message(kuka, tmp_path):
+    result = _cli(kuka["tracker"], "--poses", 5, "--runs", 0, "--out", "x.json", "--force", cwd=tmp_path)
+    assert result.returncode == 1 and "Traceback" not in result.stderr and result.stderr.count("error:") == 1
+    assert "x.json and x.json are one file" in result.stderr and not (tmp_path / "x.json").exists()

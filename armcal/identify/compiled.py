@@ -96,7 +96,7 @@ def compiled(functions: list[ca.Function], identity: str | None = None) -> list[
             _say_once(MESSAGE.format(where=""))
         with tempfile.TemporaryDirectory(dir=folder) as work:
             path = Path(work) / builder.SOURCE
-            path.write_text(source)
+            _write_source(path, source)
             builder.build_unless_intact(path, library, compiler)
     except (OSError, subprocess.CalledProcessError):
         return functions
@@ -143,7 +143,7 @@ def _start_builder(source: str, library: Path, compiler: str) -> None:
         return
     _started.add(library)
     work = Path(tempfile.mkdtemp(prefix="build-", dir=library.parent))  # 0700
-    (work / builder.SOURCE).write_text(source)
+    _write_source(work / builder.SOURCE, source)
     package_root = str(Path(__file__).resolve().parents[2])
     code = "import sys; sys.path.insert(0, sys.argv[1]); from armcal.identify.builder import main; main(sys.argv[2:])"
     command = [sys.executable, "-I", "-c", code, package_root, str(work), str(library), compiler]
@@ -187,6 +187,17 @@ def _make_private(folder: Path) -> None:
             pass
 
 
+SOURCE_MODE = 0o644  # the generated C: readable, writable by its owner alone, whatever the umask
+
+
+def _write_source(path: Path, text: str) -> None:
+    """Write the generated C source as a new file of mode SOURCE_MODE (fchmod: the umask plays no part)."""
+    handle = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), SOURCE_MODE)
+    with os.fdopen(handle, "w", encoding="utf-8") as stream:
+        os.fchmod(stream.fileno(), SOURCE_MODE)
+        stream.write(text)
+
+
 _exposure, _intact, _hash_file, _sha256 = builder.exposure, builder.intact, builder.hash_file, builder.sha256
 
 
@@ -194,7 +205,7 @@ def _build(functions: list[ca.Function], names: list[str], library: Path, compil
     """Compile the functions into ``library`` (under the folder's build lock) and record its hash."""
     with tempfile.TemporaryDirectory(dir=library.parent) as work:
         source = Path(work) / builder.SOURCE
-        source.write_text(_source(_serialized(functions, names), functions, names))
+        _write_source(source, _source(_serialized(functions, names), functions, names))
         with builder.locked(library.parent):
             builder.build(source, library, compiler)
 

@@ -2,7 +2,8 @@
 
 Drawn from plain values (``AccuracyCurve.values()``), so a report can draw it from its JSON alone: the mean
 over the simulated robots of each design, log-log, planned poses against random ones (N and 3N), with the
-1/sqrt(N) slope that many random poses follow for reference.
+1/sqrt(N) slope that many random poses follow for reference. A design that identified no robot is left out (its
+mean is None); when none did, the plot says so instead of drawing empty log axes.
 """
 
 from __future__ import annotations
@@ -20,6 +21,16 @@ def accuracy_plot(curve: dict, unit: str = "mm", title: str = "") -> str:
     """SVG of {"counts": [...], "planned": {criterion: [mean per count]}, "random": {factor: [mean per count]}}."""
     counts = np.asarray(curve["counts"], dtype=float)
     figure, axis = plt.subplots(figsize=(4.5, 3.0))
+    drawn = np.asarray([v for means in (*curve["planned"].values(), *curve["random"].values()) for v in means], dtype=float)
+    if not (np.isfinite(drawn) & (drawn > 0)).any():  # no design identified the model: nothing to draw on log axes
+        axis.text(0.5, 0.5, "no design of these numbers of poses\nidentified the model: nothing to compare",
+                  ha="center", va="center", transform=axis.transAxes, fontsize=8)
+        axis.set_xticks([])
+        axis.set_yticks([])
+        axis.set_xlabel("N, poses planned (or drawn at random)")
+        if title:
+            axis.set_title(title, fontsize=8)
+        return svg(figure)
     for criterion, means in curve["planned"].items():
         axis.plot(counts, means, marker="o", ms=3, lw=1.2, color="black" if criterion == "D" else "0.35", label=f"planned ({criterion}-optimal)")
     for factor, means in curve["random"].items():

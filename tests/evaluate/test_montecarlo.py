@@ -151,3 +151,40 @@ def test_an_output_path_that_is_a_file_is_a_user_error(tmp_path):
     (tmp_path / "taken").write_text("")
     with pytest.raises(UserError, match="is a file"):
         montecarlo(SONIC, 2, out_dir=tmp_path / "taken" / "study")
+
+
+def test_an_earlier_study_is_replaced_only_with_force_and_then_whole(tmp_path):
+    """The output folder follows `armcal run`'s rule (issue 30 class 3): without --force an earlier study stays as it
+    was; with it the new study replaces the folder's set whole (no trend plot of the earlier sweep survives); a
+    folder holding anything else is never taken over."""
+    from armcal.errors import UserError
+
+    out = tmp_path / "study"
+    montecarlo(SONIC, 2, ["noise_factor=1,2"], out_dir=out, workers=1)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert "montecarlo_trend.svg" in before
+    with pytest.raises(UserError, match="montecarlo.json exists; use --force"):
+        montecarlo(SONIC, 2, out_dir=out, workers=1)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    again = montecarlo(SONIC, 2, out_dir=out, workers=1, force=True)
+    assert {p.name for p in out.iterdir()} == {p.name for p in again.files} | {".armcal-set.json"}
+    assert "montecarlo_trend.svg" not in {p.name for p in out.iterdir()}
+    other = tmp_path / "notes"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine\n")
+    with pytest.raises(UserError, match="not an armcal output set"):
+        montecarlo(SONIC, 2, out_dir=other, workers=1, force=True)
+    assert [p.name for p in other.iterdir()] == ["notes.txt"]
+
+
+def test_a_study_folder_written_before_manifests_is_replaced_with_force(tmp_path):
+    from armcal.errors import UserError
+
+    out = tmp_path / "legacy"
+    out.mkdir()
+    for name in ("montecarlo.json", "montecarlo.csv", "plan_accuracy.svg"):
+        (out / name).write_text("earlier\n")
+    with pytest.raises(UserError, match="use --force"):
+        montecarlo(SONIC, 2, out_dir=out, workers=1)
+    montecarlo(SONIC, 2, out_dir=out, workers=1, force=True)
+    assert not (out / "plan_accuracy.svg").exists() and (out / "montecarlo.json").read_text() != "earlier\n"

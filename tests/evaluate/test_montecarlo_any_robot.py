@@ -121,3 +121,25 @@ def test_a_poses_list_that_is_not_numbers_is_a_user_error():
     for bad in ("15;30", "0,15", "a"):
         with pytest.raises(UserError, match="--poses"):
             pose_counts(bad)
+
+
+def test_too_few_poses_for_any_design_are_refused_before_the_study(tmp_path):
+    """--poses 4 on the UR10 (6 readings a pose, 30 base parameters): no design of 4 poses can be identified, so the
+    study says so at once, exit 1, and writes nothing (issue 30 leftover 6)."""
+    from conftest import armcal_cli
+
+    with pytest.raises(UserError, match=r"--poses 4,20: 4 poses give at most 24 readings .* 30 base parameters.*at least 5"):
+        montecarlo(UR10, 2, out_dir=tmp_path / "a", workers=1, seed=5, poses=[4, 20])
+    assert not (tmp_path / "a").exists()
+    result = armcal_cli("montecarlo", UR10, "--runs", 2, "--poses", 2, "--workers", 1, "--out", tmp_path / "b")
+    assert result.returncode == 1 and "Traceback" not in result.stderr and "cannot determine" in result.stderr, result.stderr
+    assert not (tmp_path / "b").exists()
+
+
+def test_a_curve_no_design_identified_is_drawn_as_a_note():
+    from armcal.report.plan_plots import accuracy_plot
+
+    drawn = accuracy_plot({"counts": [6, 7], "planned": {"D": [None, None]}, "random": {"1": [None, None], "3": [None, None]}})
+    assert drawn.lstrip().startswith("<?xml") and "identified" in drawn
+    partial = accuracy_plot({"counts": [6, 30], "planned": {"D": [None, 0.05]}, "random": {"1": [None, 0.08], "3": [None, None]}})
+    assert "random N" in partial

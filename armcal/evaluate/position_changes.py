@@ -2,8 +2,9 @@
 
 Two runs may identify different members of a redundant group (the base set is the data's choice where a spec's
 order cannot decide, armcal/identify/identifiability.py) and still predict the same robot. What they predict does not
-depend on that choice: at POSES poses spread over the joint limits (the unscrambled Halton sequence, its points 1 to
-POSES: the same poses for every comparison), the position in the robot base frame of the tool's origin and of each
+depend on that choice: at POSES poses spread over the joint ranges both campaigns measured (the unscrambled Halton
+sequence, its points 1 to POSES, over the intersection of results.json's campaign.joint_ranges: a model is compared where
+its data determined it), the position in the robot base frame of the tool's origin and of each
 target, from each run's calibrated.yaml (its geometry; effects are not included). The change d = p_new - p_old per pose
 and point has the covariance S = J_old C_old J_old^T + J_new C_new J_new^T: first-order propagation (GUM, JCGM
 100:2008 5.1.2, matrix form), the runs independent (separate campaigns), J = dp/d(parameters) by CasADi's automatic
@@ -27,6 +28,7 @@ from scipy.stats import qmc
 from armcal.kinematics.compiler import KinematicModel, compile_robot
 from armcal.evaluate.multiple_testing import holm
 from armcal.spec import load_spec
+from armcal.spec.robot import joint_kind
 from armcal.units import factor
 
 POSES = 50
@@ -40,6 +42,7 @@ class RunModel:
     model: KinematicModel
     identified: list[int]  # indices into model.parameters
     covariance: np.ndarray
+    ranges: np.ndarray  # (dof, 2) internal units: the joints' ranges in the calibration data (the limits if not recorded)
 
 
 @dataclass(frozen=True)
@@ -60,7 +63,8 @@ def run_model(folder: Path, results: dict) -> RunModel | None:
     matrix = results.get("correlation_matrix")
     if matrix is None:
         return None
-    model = compile_robot(load_spec(folder / "calibrated.yaml").spec.robot)
+    robot = load_spec(folder / "calibrated.yaml").spec.robot
+    model = compile_robot(robot)
     rows = {p["name"]: p for p in results["parameters"]}
     names = model.parameters.names
     order = {name: k for k, name in enumerate(matrix["parameters"])}
@@ -68,13 +72,25 @@ def run_model(folder: Path, results: dict) -> RunModel | None:
     std = np.array([rows[names[i]]["std"] * factor(model.parameters.entries[i].kind, rows[names[i]]["unit"]) for i in identified])
     taken = [order[names[i]] for i in identified]
     correlation = np.array(matrix["matrix"], dtype=float)[np.ix_(taken, taken)]
-    return RunModel(model, identified, std[:, None] * correlation * std[None, :])
+    ranges = model.limits.copy()
+    for i, (recorded, kind) in enumerate(zip(results["campaign"].get("joint_ranges") or [], model.joint_types)):
+        if recorded is not None:
+            unit = robot.units.of(joint_kind(kind))
+            ranges[i] = [v * factor(joint_kind(kind), unit) for v in recorded]
+    return RunModel(model, identified, std[:, None] * correlation * std[None, :], ranges)
 
 
-def poses(model: KinematicModel, count: int = POSES) -> np.ndarray:
-    """``count`` poses (rad, mm) spread over the joint limits: points 1..count of the unscrambled Halton sequence."""
-    low, high = model.limits.T
-    return low + qmc.Halton(d=model.dof, scramble=False).random(count + 1)[1:] * (high - low)
+def poses(box: np.ndarray, count: int = POSES) -> np.ndarray:
+    """``count`` poses (rad, mm) spread over ``box`` (dof, 2): points 1..count of the unscrambled Halton sequence."""
+    low, high = box.T
+    return low + qmc.Halton(d=len(box), scramble=False).random(count + 1)[1:] * (high - low)
+
+
+def common_box(old: RunModel, new: RunModel) -> np.ndarray | None:
+    """The joint ranges both calibrations were fitted on (their intersection), or None where they share none: a
+    model is compared where its data determined it, not extrapolated beyond them."""
+    box = np.column_stack([np.maximum(old.ranges[:, 0], new.ranges[:, 0]), np.minimum(old.ranges[:, 1], new.ranges[:, 1])])
+    return box if np.all(box[:, 0] <= box[:, 1]) else None
 
 
 def predicted(run: RunModel, Q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -91,9 +107,9 @@ def predicted(run: RunModel, Q: np.ndarray) -> dict[str, tuple[np.ndarray, np.nd
     return out
 
 
-def position_changes(old: RunModel, new: RunModel) -> list[PositionChange]:
-    """Every point both models carry at every pose of poses(new), tested by chi2 and flagged by Holm's test."""
-    Q = poses(new.model)
+def position_changes(old: RunModel, new: RunModel, box: np.ndarray) -> list[PositionChange]:
+    """Every point both models carry at every pose of poses(box), tested by chi2 and flagged by Holm's test."""
+    Q = poses(box)
     before, after = predicted(old, Q), predicted(new, Q)
     rows = []
     for point in (p for p in after if p in before):

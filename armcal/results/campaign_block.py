@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from armcal.spec import LoadedSpec
+from armcal.spec.robot import joint_kind
 from armcal.units import from_internal
 
 
@@ -55,7 +56,21 @@ def campaign(loaded: LoadedSpec, calibration, validation, simulated: tuple[bool,
         "validation_samples": len(validation) if validation is not None else None,
         "temperature": [float(values.min()), float(values.max())] if values is not None else None,
         "traceability": traceability(device.instrument),
+        "joint_ranges": joint_ranges(loaded, calibration),
     }
+
+
+def joint_ranges(loaded: LoadedSpec, calibration) -> list[list[float] | None]:
+    """[lowest, highest] reading of each joint over the calibration data, in the spec's unit of the joint's kind:
+    where the calibrated model was fitted, not extrapolated (None: the data never read the joint)."""
+    robot = loaded.spec.robot
+    ranges = []
+    for i, joint in enumerate(robot.joints):
+        kind = joint_kind(joint.type)
+        values = calibration.q[:, i][np.isfinite(calibration.q[:, i])]
+        shown = [from_internal(float(v), kind, robot.units.of(kind)) for v in (values.min(), values.max())] if len(values) else None
+        ranges.append(shown)
+    return ranges
 
 
 def traceability(instrument) -> dict | None:

@@ -61,25 +61,53 @@ def _in_unit(row: dict, unit: str) -> dict:
     return {**row, "unit": unit, "value": row["value"] * scale, "std": None if row["std"] is None else row["std"] * scale}
 
 
-def held_reasons(results: dict) -> dict[str, str]:
-    """Why a results.json held each parameter it held, by name (identifiability.fixed)."""
-    return {f["name"]: f["reason"] for f in results["identifiability"]["fixed"]}
+@dataclass(frozen=True)
+class Basis:
+    """What a calibration's base set says about its parameters: why each held one was held (identifiability.fixed)
+    and which identified ones move together (results.json's correlations above 0.95)."""
+
+    reasons: dict[str, str]
+    correlated: tuple[tuple[str, str, float], ...] = ()
+
+    def partners(self, name: str) -> set[str]:
+        """The parameters ``name`` shares a redundancy with here: those its held reason names ("redundant with A, B"),
+        and those an identified ``name`` is correlated with."""
+        reason = self.reasons.get(name, "")
+        named = reason.removeprefix(REDUNDANT).split(" at the design point")[0].split(", ") if reason.startswith(REDUNDANT) else []
+        return {*named, *(b if a == name else a for a, b, _ in self.correlated if name in (a, b))}
 
 
-def changes(old: list[dict], new: list[dict], old_reasons: dict[str, str] | None = None,
-            new_reasons: dict[str, str] | None = None) -> list[Change]:
+REDUNDANT = "redundant with "  # identify/identifiability.py's reason for a parameter the base set holds
+NO_BASIS = Basis({})  # a calibrated spec: its base set is not written
+
+
+def basis(results: dict) -> Basis:
+    """A results.json's Basis."""
+    return Basis({f["name"]: f["reason"] for f in results["identifiability"]["fixed"]}, tuple(map(tuple, results["correlations"])))
+
+
+def changes(old: list[dict], new: list[dict], old_basis: Basis = NO_BASIS, new_basis: Basis = NO_BASIS) -> list[Change]:
     """Every parameter either calibration identified: with its change in combined standard uncertainties where both
-    did, the significant ones flagged by Holm's test at family-wise ALPHA; else "not comparable" and why (the sides'
-    ``reasons``, by name, say why a parameter was held: held_reasons)."""
+    did, the significant ones flagged by Holm's test at family-wise ALPHA; else "not comparable" and why.
+
+    Where one side identified a parameter the other held, the two base sets carry that redundancy on different
+    members, and the values of its partners (Basis.partners, on either side) mean different things too: they are
+    not comparable either."""
     before, after = {p["name"]: p for p in old}, {p["name"]: p for p in new}
+    names = [name for name in [*after, *(n for n in before if n not in after)] if any(r is not None and r["free"] for r in (after.get(name), before.get(name)))]
+    unidentified = {name: [f"{side}: {reason}" for side, reason in (("old", _unidentified(before.get(name), old_basis.reasons)),
+                                                                    ("new", _unidentified(after.get(name), new_basis.reasons))) if reason]
+                    for name in names}
+    moved = {}  # partner -> the swapped parameter whose redundancy it shares
+    for name in (n for n in names if len(unidentified[n]) == 1 and n in before and n in after):
+        for partner in sorted(old_basis.partners(name) | new_basis.partners(name)):
+            moved.setdefault(partner, name)
     rows = []
-    for name in [*after, *(n for n in before if n not in after)]:
+    for name in names:
         p, q = after.get(name), before.get(name)
-        if not any(row is not None and row["free"] for row in (p, q)):
-            continue
         unit = (p or q)["unit"]
         q = q and _in_unit(q, unit)
-        why = [f"{side}: {reason}" for side, reason in (("old", _unidentified(q, old_reasons or {})), ("new", _unidentified(p, new_reasons or {}))) if reason]
+        why = unidentified[name] or ([f"carries a redundancy with {moved[name]}, which one side holds and the other identifies"] if name in moved else [])
         spread = 0.0 if why else math.hypot(p["std"], q["std"])
         if not why and spread == 0:
             why = ["no uncertainty on either side"]

@@ -17,12 +17,13 @@ from pathlib import Path
 import numpy as np
 
 from armcal.errors import UserError
-from armcal.evaluate.position_changes import POSES, position_changes, run_model
+from armcal.evaluate.position_changes import POSES, common_box, position_changes, run_model
 from armcal.fileio import INPUT_LIMITS
 from armcal.gitrepo import file_at_revision
 from armcal.kinematics.params import parameter_set
 from armcal.report.render import read_results, results_file
-from armcal.results.changes import ALPHA, changes, check_same_robot, held_reasons
+from armcal.evaluate.multiple_testing import ALPHA
+from armcal.results.changes import NO_BASIS, Basis, basis, changes, check_same_robot
 from armcal.spec.locations import yaml_path
 from armcal.spec import LoadedSpec, load_spec
 from armcal.spec.loader import spec_from_bytes
@@ -42,7 +43,7 @@ class Calibration:
     created: str | None
     run_id: str | None
     parameters: list[dict]  # {name, unit, value, std, free}, values in the spec's units
-    held: dict[str, str]  # why each held parameter was held, by name (a run's identifiability.fixed)
+    basis: Basis  # a run's base set: why it held what it held, what moves together
     run: tuple[Path, dict] | None = None  # a run's folder (with its calibrated.yaml) and results.json
 
 
@@ -59,7 +60,7 @@ def calibration(argument: str) -> Calibration:
         robot = results["robot"]
         run = (file.parent, results) if (file.parent / "calibrated.yaml").is_file() else None
         return Calibration(argument, robot["name"], robot["serial"], (robot["convention"], robot["dof"]), results["created"],
-                           results.get("run_id"), results["parameters"], held_reasons(results), run)
+                           results.get("run_id"), results["parameters"], basis(results), run)
     if not exists and "@" in argument:
         file, _, revision = argument.rpartition("@")
         raw = file_at_revision(Path(file), revision)
@@ -90,7 +91,7 @@ def _from_spec(loaded: LoadedSpec, label: str) -> Calibration:
         })
     header = _CALIBRATED_BY.search(loaded.text)
     created, run = (header["created"], header["run"]) if header else (None, None)
-    return Calibration(label, spec.robot.name, spec.robot.serial, (spec.robot.convention, spec.robot.dof), created, run, rows, {})
+    return Calibration(label, spec.robot.name, spec.robot.serial, (spec.robot.convention, spec.robot.dof), created, run, rows, NO_BASIS)
 
 
 def _check_same_model(old: Calibration, new: Calibration) -> None:
@@ -111,7 +112,7 @@ def _number(value: float | None, width: int, digits: str) -> str:
 
 def _parameter_lines(old: Calibration, new: Calibration) -> tuple[list[str], int]:
     lines = [f"{'parameter':32} {'old':>14} {'new':>14} {'change':>12} {'unit':8} {'z':>7}"]
-    found = changes(old.parameters, new.parameters, old.held, new.held)
+    found = changes(old.parameters, new.parameters, old.basis, new.basis)
     for c in found:
         change = c.new - c.old if c.z is not None else None
         lines.append(f"{c.name:32} {_number(c.old, 14, '6g')} {_number(c.new, 14, '6g')} {_number(change, 12, '4g')} {c.unit:8} "
@@ -136,8 +137,12 @@ def _position_lines(old: Calibration, new: Calibration) -> tuple[list[str], int]
         side = " and ".join(c.label for c, m in zip((old, new), models) if m is None)
         return [f"Predicted positions not compared: {side} was written by an armcal that did not record the parameters' "
                 "correlation matrix (results.json: correlation_matrix); run it again to compare positions"], 0
-    found = position_changes(*models)
-    lines = [f"Predicted positions at {POSES} poses spread over the joint limits (Halton), robot base frame:",
+    box = common_box(*models)
+    if box is None:
+        return ["Predicted positions not compared: the two campaigns share no range of some joint (results.json: "
+                "campaign.joint_ranges), and a model is compared only where its data determined it"], 0
+    found = position_changes(*models, box)
+    lines = [f"Predicted positions at {POSES} poses spread over the joint ranges both campaigns measured (Halton), robot base frame:",
              f"{'point':32} {'largest change':>14} {'its std':>10} {'unit':4} {'largest chi2':>12} {'significant':>11}"]
     for point in dict.fromkeys(c.point for c in found):
         rows = [c for c in found if c.point == point]

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from armcal.results.changes import changes, held_reasons
+from armcal.results.changes import changes, basis
 
 
 def history_entries(current: dict, earlier: list[tuple[str, dict]]) -> list[dict]:
     """One entry per earlier results (its source, as read), oldest first; changes against ``current``."""
     entries = []
     for source, old in sorted(earlier, key=lambda pair: pair[1]["created"]):
-        found = changes(old["parameters"], current["parameters"], held_reasons(old), held_reasons(current))
+        found = changes(old["parameters"], current["parameters"], basis(old), basis(current))
         validation = old["residuals"]["validation"]
         entries.append({
             "source": source,

@@ -301,6 +301,7 @@ class Campaign(_Frozen):
     validation_samples: int | None
     temperature: list[float] | None  # min, max in degC when measured
     traceability: Traceability | None = None  # null: the spec does not give the instrument's identity
+    joint_ranges: list[list[float] | None] | None = None  # per joint [lowest, highest] calibration reading; null: an older armcal
 
 
 class ReportInfo(_Frozen):

@@ -143,8 +143,8 @@ def test_the_propagated_covariance_is_j_c_jt_of_an_independent_chain(gen3):
     names = [base.model.parameters.names[i] for i in base.identified]
     nominal = {n: base.model.parameters.nominal[base.model.parameters.index(n)] for n in names}
     A = np.random.default_rng(0).normal(size=(len(names), len(names))) * 1e-3
-    model = RunModel(base.model, base.identified, A @ A.T)
-    Q = poses(base.model)[:3]
+    model = RunModel(base.model, base.identified, A @ A.T, base.ranges)
+    Q = poses(base.ranges)[:3]
     found = predicted(model, Q)
     for k, q in enumerate(Q):
         columns = []

@@ -371,14 +371,12 @@ def compensate(
     """Joint commands that reach Cartesian targets on the calibrated robot, its effects included (docs/export.md)."""
     from armcal.export import calibration_source
     from armcal.export.compensation import compensate as compensated_commands
-    from armcal.fileio import read_input, refuse_replacing, write_text_atomic
+    from armcal.dataio.reader import data_text
+    from armcal.fileio import refuse_replacing, write_text_atomic
 
     refuse_replacing([out], [*_calibration_inputs(source), targets], force)
     loaded, results = calibration_source(source)
-    try:
-        text = read_input(targets, "data").decode("utf-8")
-    except UnicodeDecodeError:
-        raise UserError(f"{targets}: not UTF-8 text") from None
+    text = data_text(targets)
     commands, unreached, left_out = compensated_commands(loaded, results, text, str(targets))
     write_text_atomic(out, commands)
     typer.echo(f"wrote {out}: {commands.count(chr(10)) - 1 - len(unreached)} targets reached" + (f", {len(unreached)} not" if unreached else ""))

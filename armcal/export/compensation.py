@@ -20,9 +20,10 @@ import casadi as ca
 import numpy as np
 
 from armcal.dataio.columns import Layout, joint_columns
-from armcal.dataio.reader import CELL, read_table
+from armcal.dataio.reader import CELL, MAX_ISSUES, read_table
 from armcal.effects.library import from_spec
 from armcal.effects.measurement import EffectSet, extras_size
+from armcal.errors import Issue, SpecError
 from armcal.fileio import spreadsheet_safe
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel, compile_robot
@@ -52,10 +53,23 @@ def _targets(text: str, name: str, spec) -> tuple[list[str], np.ndarray, np.ndar
     values, text_columns, count = read_table(Path(name), text, spec, layout, verbatim=("name",))  # written back as given
     names = text_columns.get("name", [""] * count)
     labels = [names[r] or str(r + 1) for r in range(count)]
+    _unique(labels, Path(name))
     x, y, z, rx, ry, rz = (values[c] for c in POSE)
     goals = ik.pose_goals(np.array([np.array(ca.DM(xyz_zyx(*pose))) for pose in zip(x, y, z, rz, ry, rx)]))
     seeds = np.stack([values.get(c, np.full(count, np.nan)) for c in joints], axis=1)
     return labels, goals, seeds
+
+
+def _unique(labels: list[str], path: Path) -> None:
+    """Each target's label (its name, or its row number where it has none) names one row of the commands."""
+    first: dict[str, int] = {}
+    repeated = []
+    for r, label in enumerate(labels):
+        if label in first:
+            repeated.append(Issue(path, r + 2, None, "name", f"the name repeats line {first[label]}'s: each target names one command"))
+        first.setdefault(label, r + 2)
+    if repeated:
+        raise SpecError(repeated[:MAX_ISSUES])
 
 
 def _deviation(kinematics: KinematicModel, effects: EffectSet):

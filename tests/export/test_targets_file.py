@@ -54,6 +54,16 @@ def test_a_mistake_in_the_targets_is_one_located_message(puma, header, row, issu
     assert "secret" not in str(raised.value)
 
 
+def test_a_repeated_target_name_is_refused_at_its_line(puma):
+    """Names label the commands: a name given twice, or a name that is an unnamed row's number, is a located mistake."""
+    loaded, pose = puma
+    rows = [f"{n},{','.join(pose)}" for n in ("a", "b", "a", "", "4", "b")]
+    with pytest.raises(SpecError) as raised:
+        compensate(loaded, None, "name,x,y,z,rx,ry,rz\n" + "\n".join(rows) + "\n", "targets")
+    assert [str(i) for i in raised.value.issues] == [f"targets:{line}: name: the name repeats line {first}'s: each target names one command"
+                                                     for line, first in ((4, 2), (6, 5), (7, 3))]
+
+
 def test_a_bom_and_crlf_keep_the_names_and_a_seed_in_the_limits_reaches(tmp_path, puma):
     """A spreadsheet's UTF-8 export (BOM, CRLF): the names stay names; seeded 3 deg off or not seeded, the reachable
     target is reached at Q. Through the command: exit 0, and exit 1 with one located line for a seed outside."""
@@ -75,3 +85,14 @@ def test_a_bom_and_crlf_keep_the_names_and_a_seed_in_the_limits_reaches(tmp_path
     refused = armcal_cli("compensate", SPECS / "puma560_dh.yaml", "--targets", targets, "--out", out, "--force")
     assert refused.returncode == 1 and "Traceback" not in refused.stderr
     assert f"{targets}:2:10: q3: 230 deg lies outside joint 3's limits" in refused.stderr
+
+
+def test_targets_not_utf8_are_refused_at_their_line(tmp_path, puma):
+    """A Latin-1 export (a name with an accent on line 3) is refused with its line, no traceback, nothing written."""
+    _, pose = puma
+    targets = tmp_path / "targets.csv"
+    targets.write_bytes(f"name,x,y,z,rx,ry,rz\nfirst,{','.join(pose)}\n".encode() + "d\xe9p\xf4t,".encode("latin-1") + ",".join(pose).encode() + b"\n")
+    out = tmp_path / "commands.csv"
+    refused = armcal_cli("compensate", SPECS / "puma560_dh.yaml", "--targets", targets, "--out", out)
+    assert refused.returncode == 1 and "Traceback" not in refused.stderr and not out.exists()
+    assert f"{targets}:3:" in refused.stderr and "not UTF-8" in refused.stderr and "d\ufffdp" not in refused.stderr

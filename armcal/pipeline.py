@@ -22,7 +22,7 @@ from armcal.report.render import certificate_files, check_templates, read_earlie
 from armcal.results.build import build_results
 from armcal.results.schema import Results
 from armcal.results.calibrated import calibrated_text
-from armcal.results.campaign_block import campaign
+from armcal.results.campaign_block import campaign, certificate_unit
 from armcal.results.history import history_entries
 from armcal.simulate import find_truth, simulated_times
 from armcal.spec.sections import Simulate
@@ -82,7 +82,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
         tasks = evaluation_tasks(spec, kinematics, calibrated, truth)
     with stage("drawing the evidence"):
         found = evidence(loaded, kinematics, device, calibrated, calibration)
-        plots = {name: stamp_svg(svg, identifier) for name, svg in draw_plots(found).items()}
+        plots = {name: stamp_svg(svg, identifier) for name, svg in draw_plots(found, certificate_unit(spec)).items()}
     validation_path = folder / spec.data.validation if spec.data.validation else None
     simulated = (truth is not None, validation_path is not None and find_truth(validation_path) is not None)
     step = (spec.simulate or Simulate()).time_step

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,7 @@ from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.parallel import parallel_axes
 from armcal.kinematics.transforms import pose_from_matrix
 from armcal.identify.precision import WEAK
+from armcal.report.numbers import counted, improvement, median_improvement, p_value, task_noise
 from armcal.results.breakdown import before_data, table_lines
 from armcal.results.plausibility import WHY, status_words
 from armcal.results.schema import TASK_TITLES
@@ -108,19 +110,19 @@ def forward_kinematics_report(loaded: LoadedSpec, q_text: str, target: str | Non
 
 VARIANCE_VERDICTS = {
     "consistent": "consistent with the declared {declared:.4g} {unit}",
-    "declared_too_small": "the declared {declared:.4g} {unit} is too small (p = {p:.2g}): the instrument or the model is worse than declared",
-    "declared_too_large": "the declared {declared:.4g} {unit} is too large (p = {p:.2g})",
+    "declared_too_small": "the declared {declared:.4g} {unit} is too small ({p}): the instrument or the model is worse than declared",
+    "declared_too_large": "the declared {declared:.4g} {unit} is too large ({p})",
 }
 
 
 def noise_lines(noise) -> list[str]:
     """The noise estimated from the data, one line per group, each against its declared sigma."""
-    lines = [f"  noise from the data ({noise.method.split(' (')[0]}, {noise.rounds} rounds"
+    lines = [f"  noise from the data ({noise.method.split(' (')[0]}, {counted(noise.rounds, 'round')}"
              + ("" if noise.converged else ", NOT converged") + "):"]
     for g in noise.groups:
         line = f"    {g.group}: sigma {g.sigma:.4g} +- {g.std:.2g} {g.unit} per reading ({g.readings} readings)"
         if g.test is not None:
-            line += "; " + VARIANCE_VERDICTS[g.test.verdict].format(declared=g.declared, unit=g.unit, p=g.test.p_value)
+            line += "; " + VARIANCE_VERDICTS[g.test.verdict].format(declared=g.declared, unit=g.unit, p=p_value(g.test.p_value))
         lines.append(line)
     return lines
 
@@ -134,7 +136,7 @@ def implausible_lines(r) -> list[str]:
         return []
     p = r.plausibility
     where = "robot.tolerance" if p.from_spec else "the default; set robot.tolerance"
-    lines = [f"  implausible: {len(p.implausible)} identified robot value(s) beyond {p.length:g} {p.length_unit} / "
+    lines = [f"  implausible: {counted(len(p.implausible), 'identified robot value')} beyond {p.length:g} {p.length_unit} / "
              f"{p.angle:g} {p.angle_unit} of nominal ({where})"]
     for v in p.implausible[:IMPLAUSIBLE_SHOWN]:
         std = f", std {v.std:.3g} {v.unit}" if v.std is not None else ""
@@ -162,7 +164,7 @@ def run_summary(outcome) -> str:
     unit = r.device.unit
     cal = r.residuals.calibration
     lines = [
-        f"{r.robot.name} ({r.robot.serial}): {status_words(r.status, r.plausibility)} ({r.solver.reason}, {r.solver.iterations} iterations)",
+        f"{r.robot.name} ({r.robot.serial}): {status_words(r.status, r.plausibility)} ({r.solver.reason}, {counted(r.solver.iterations, 'iteration')})",
         *implausible_lines(r),
         f"  identified {r.identifiability.rank} of {r.identifiability.n_parameters} parameters, "
         f"condition number {r.identifiability.condition_number:.3g}",
@@ -175,7 +177,7 @@ def run_summary(outcome) -> str:
         lines.append(f"  validation  RMS {val.before.rms:.4g} -> {val.after.rms:.4g} {unit} (x{r.improvement_factor.validation:.3g})")
     if r.noise is not None:
         lines += noise_lines(r.noise)
-    lines.append(f"  noise check chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g} (p = {r.noise_check.p_value:.3g})"
+    lines.append(f"  noise check chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g} ({p_value(r.noise_check.p_value)})"
                  + (" (with the estimated sigmas: 1 wherever every group is estimated)" if r.noise is not None else ""))
     if r.noise_check.verdict != "consistent":
         lines.append(f"  {NOISE_VERDICTS[r.noise_check.verdict]}")
@@ -204,10 +206,9 @@ def task_lines(r) -> list[str]:
         if "skipped" in block:
             lines.append(f"  {name}: skipped: {block['skipped']}")
         elif task == "grid_task":
-            factors = [row["improvement_factor"] for row in block["indices"]]
-            finite = [f for f in factors if f is not None and np.isfinite(f)]  # an index calibrated to exactly 0 has none
-            median = f"median improvement x{np.median(finite):.3g}" if finite else "no finite improvement factor"
-            lines.append(f"  {name}: {len(factors)} indices, {median}; {block['placement']}")
+            noise = lambda unit: task_noise(r.device.noise_sigma, r.device.unit, unit, block["centre"], block["unit"])  # noqa: E731
+            factors = [improvement(row["design"], row["calibrated"], noise(row["unit"])) for row in block["indices"]]
+            lines.append(f"  {name}: {len(factors)} indices, {median_improvement(factors)}; {block['placement']}")
         else:
             cube, worst = block["cube"], lambda key: max(row[key] for row in block["poses"])  # noqa: E731
             lines.append(f"  {name} (side {cube['side']:.4g} {cube['unit']}): AP at P1-P5 at most {worst('design'):.4g} -> "
@@ -348,7 +349,7 @@ def held_out_lines(r) -> list[str]:
     if check is None or check.verdict == "consistent":
         return []
     head = (f"  held-out check: the held-out residuals are {check.rms_over_noise:.3g} noise sigmas RMS; noise and the parameters' "
-            f"uncertainty predict {check.expected_rms_over_noise:.3g} (chi2 {check.chi2:.4g} on {check.dof}, p = {check.p_value:.2g})")
+            f"uncertainty predict {check.expected_rms_over_noise:.3g} (chi2 {check.chi2:.4g} on {check.dof}, {p_value(check.p_value)})")
     if check.verdict == "parameter_uncertainty":
         flat = [name for f in r.identifiability.flat_directions for name, _ in f.parameters]
         along = f" (the flat direction: {', '.join(dict.fromkeys(flat))})" if flat else ""
@@ -369,15 +370,24 @@ def held_out_lines(r) -> list[str]:
     return [head, "    more than the calibrated model explains; likely causes: " + "; ".join(causes)]
 
 
+SHARED_REASON = re.compile(r"\(([^()]{30,})\)")  # a long parenthesis: said once when several causes share it
+
+
 def cause_lines(r, spec_path: str) -> list[str]:
-    """The likely causes of residuals above the noise model, ranked, each with its spec key and line."""
+    """The likely causes of residuals above the noise model, ranked, each with its spec key and line; a reason in
+    parentheses that several causes share is given once, below them, by its letter."""
     causes = r.noise_check.causes
     if not causes:
         return []
+    seen = [reason for cause in causes for reason in dict.fromkeys(SHARED_REASON.findall(cause.text))]
+    shared = [reason for reason in dict.fromkeys(seen) if seen.count(reason) > 1]
+    letters = {reason: chr(ord("a") + i) for i, reason in enumerate(shared[:26])}
     lines = [f"  likely causes of chi2/dof = {r.noise_check.chi2 / r.noise_check.dof:.3g}, by the evidence of this run (look at):"]
     for number, cause in enumerate(causes, start=1):
+        text = SHARED_REASON.sub(lambda m: f"(reason {letters[m.group(1)]} below)" if m.group(1) in letters else m.group(0), cause.text)
         where = f" [{cause.spec_key}" + (f", {Path(spec_path).name}:{cause.line}" if cause.line else "") + "]" if cause.spec_key else ""
-        lines.append(f"    {number}. {cause.text}{where}")
+        lines.append(f"    {number}. {text}{where}")
+    lines += [f"    reason {letter}: {reason}" for reason, letter in letters.items()]
     return lines
 
 

@@ -1,6 +1,8 @@
 """`armcal run` end to end on the shipped examples, per the output contract."""
 
 import json
+import math
+import re
 import subprocess
 import sys
 
@@ -37,25 +39,63 @@ def test_run_writes_the_contract(tmp_path, name):
     _check_certificate(tmp_path, data)
 
 
-def _check_certificate(folder, data):
-    """The PDF opens, has 4-12 pages, and shows the serial, the spec's sha256, every identified value, the factors."""
-    from pypdf import PdfReader
+E_NOTATION = re.compile(r"(?<![0-9a-fA-F.])\d+(?:\.\d+)?[eE][-+]?\d+(?![0-9a-fA-F])")  # not inside a hex hash
+ROW = re.compile(r'<tr><td>([^<]*)</td><td>([^<]*)</td><td class="num">([^<]*)</td><td class="num">([^<]*)</td><td class="num">([^<]*)</td></tr>')
+UNITS_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0}
 
-    from armcal.report.context import decimals_for, number
+
+def _places(uncertainty: float) -> int:
+    """GUM 7.2.6 by string formatting: the decimals that keep two significant digits of the uncertainty."""
+    mantissa, exponent = f"{uncertainty:.1e}".split("e")
+    return max(0, 1 - int(exponent))
+
+
+def _shown(value: float, places: int) -> str:
+    text = f"{value:.{places}f}"
+    return text.lstrip("-") if float(text) == 0 else text
+
+
+def _check_certificate(folder, data):
+    """The PDF opens, has 4-12 pages, shows the serial, the spec's sha256, every identified value to the decimal of its
+    uncertainty (two significant digits), no e-notation, no '1 iterations', no bare 'p = 0'; every task factor reads
+    'at the noise' where the design figure is within the instrument's noise, else design / calibrated (bounded
+    '> N' where the calibrated figure is within it), the noise computed here from results.json."""
+    from pypdf import PdfReader
 
     reader = PdfReader(folder / "certificate.pdf")
     assert 4 <= len(reader.pages) <= 12
     text = " ".join(page.extract_text() for page in reader.pages)
     flat = text.replace("\n", " ")
     assert data["robot"]["serial"] in flat and data["spec"]["sha256"] in flat.replace(" ", "")
+    assert not E_NOTATION.search(flat), E_NOTATION.search(flat)
+    assert " 1 iterations" not in flat and not re.search(r"p = 0(?![.\d])", flat)
+    unit = data["report"]["unit"]
     for p in data["parameters"]:
-        if p["free"]:
-            shown = number(p["value"], decimals_for(2 * p["std"] if p["std"] is not None else None))
+        if p["free"] and p["std"] is not None and p["unit"] in (unit, "deg", "1"):
+            shown = _shown(p["value"], _places(2 * p["std"]))
             assert p["name"] in flat and shown in flat, (p["name"], shown)
-    for name in ("calibration", "validation"):
-        factor = data["improvement_factor"][name]
-        if factor is not None:
-            assert number(factor, 1) in flat
+    html = (folder / "certificate.html").read_text()
+    noise_mm = data["device"]["noise_sigma"] * UNITS_MM.get(data["device"]["unit"], float("nan"))
+    for task, rows in (("grid_task", "indices"), ("iso9283", "poses")):
+        block = data["evaluation"].get(task) or {}
+        centre = block.get("centre") if task == "grid_task" else (block.get("cube") or {}).get("centre")
+        for row in block.get(rows, []):
+            label = row.get("index", row.get("pose"))
+            found = [r for r in ROW.findall(html) if r[0].startswith(label) and r[0][len(label):len(label) + 1] in ("", " ")]
+            assert len(found) == 1, label
+            factor = found[0][4].replace("&gt;", ">")
+            if row["unit"] == "deg":
+                distance_mm = sum(c * c for c in centre) ** 0.5 * UNITS_MM[block.get("unit", (block.get("cube") or {}).get("unit"))]
+                noise = math.degrees(noise_mm / distance_mm)
+            else:
+                noise = noise_mm / UNITS_MM[row["unit"]]
+            before, after = abs(row["design"]), abs(row["calibrated"])
+            if before <= noise:
+                assert factor == "at the noise", (label, factor)
+            elif after <= noise:
+                assert factor == f"> {before / noise:.1f}", (label, factor)
+            else:
+                assert factor == f"{before / after:.1f}", (label, factor)
 
 
 def test_calibrated_spec_holds_the_identified_values(tmp_path):

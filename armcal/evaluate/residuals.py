@@ -31,6 +31,16 @@ def readings_by_sample(problem: Problem, theta: np.ndarray, reading_kind: str) -
     return (values / ARCSEC if unit == "arcsec" else values), residual.sample[chosen]
 
 
+def reading_noise(problem: Problem, reading_kind: str) -> float:
+    """The noise model's sigma of one summarised reading (RMS over the readings, in the unit shown): the resolution
+    at which the certificate shows residual statistics."""
+    kind, unit = residual_unit(reading_kind)
+    residual = problem.residuals
+    chosen = (np.array(residual.kind) == kind) & (residual.sample >= 0)
+    sigma = float(np.sqrt(np.mean(residual.sigma[chosen] ** 2)))
+    return sigma / ARCSEC if unit == "arcsec" else sigma
+
+
 def before_after(problem: Problem, start: np.ndarray, theta: np.ndarray, reading_kind: str) -> dict:
     return {
         "before": residual_stats(readings_residuals(problem, start, reading_kind)),

@@ -12,7 +12,7 @@ from armcal.diagnose.calibration import Calibration
 from armcal.evaluate.acceptance import acceptance_block
 from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
-from armcal.evaluate.residuals import before_after, distance_before_after, improvement, readings_residuals, residual_unit
+from armcal.evaluate.residuals import before_after, distance_before_after, improvement, reading_noise, readings_residuals, residual_unit
 from armcal.identify.uncertainty import residual_stats
 from armcal.kinematics.parallel import parallel_axes
 from armcal.spec import LoadedSpec
@@ -58,6 +58,7 @@ def run_figures(
     return dict(
         status="converged" if identified.features is not None or result.solver.converged else "not_converged",
         unit=unit,
+        noise_sigma=reading_noise(problem, reading_kind),
         identifiability={
             "n_parameters": len(entries),
             "rank": ident.rank,
@@ -212,4 +213,5 @@ def diagnosis_block(loaded: LoadedSpec, calibration: Calibration) -> dict:
         "added_effects": [effect_result(loaded, e, problem, theta, final_std) for e in diagnosis.added],
         "unexplained": diagnosis.unexplained,
         "chosen_on": CHOSEN_ON[diagnosis.chosen_on].format(folds=loaded.spec.diagnose.folds),
+        "alpha": loaded.spec.diagnose.alpha,
     }

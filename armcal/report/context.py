@@ -7,9 +7,10 @@ import math
 
 from armcal.evaluate.multiple_testing import ALPHA
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
+from armcal.report.numbers import AT_THE_NOISE, counted, decimals, fixed, given, improvement, measured, p_value, powers_of_ten, ratio, significant, task_noise
 from armcal.results.plausibility import WHY, status_words
 from armcal.results.schema import TASK_TITLES
-from armcal.units import ANGLE_UNITS, factor
+from armcal.units import ANGLE_UNITS, LENGTH_UNITS, factor
 
 PLOT_TITLES = {
     "residual_histogram.svg": "Residuals after calibration, with the Gaussian of the noise model",
@@ -26,39 +27,49 @@ FULL_TURN = {unit: 2 * math.pi / factor("angle", unit) for unit in ANGLE_UNITS}
 WIDE_PLOTS = {"residual_vs_joint.svg", "residual_vs_torque.svg"}  # panels per joint; the others print smaller
 
 
-def number(value: float | None, decimals: int = 4) -> str:
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return "-"
-    if value != 0 and (abs(value) >= 1e6 or abs(value) < 10 ** -(decimals + 1)):
-        return f"{value:.{max(decimals - 1, 2)}e}"
-    return f"{value:.{decimals}f}"
+class Shown:
+    """The certificate's units and resolution: every length in one unit (report.unit, else the spec's), shown to the
+    decimal of the instrument's noise per reading where a value has no uncertainty of its own (report/numbers.py)."""
+
+    def __init__(self, results: dict):
+        self.unit = results["report"].get("unit") or "mm"
+        self.reading_unit = results["device"]["unit"]
+        noise = results["device"].get("noise_sigma")
+        self.noise = self.length(noise, self.reading_unit) if noise else None
+        self.places = decimals(self.noise)
+
+    def length(self, value: float | None, unit: str) -> float | None:
+        """``value`` in ``unit`` as the certificate's unit if ``unit`` is a length; unchanged otherwise."""
+        if value is None or unit not in LENGTH_UNITS:
+            return value
+        return value * factor("length", unit) / factor("length", self.unit)
+
+    def unit_of(self, unit: str) -> str:
+        """The unit a value in ``unit`` is shown in; a dimensionless ratio says so."""
+        return self.unit if unit in LENGTH_UNITS else "1 (ratio)" if unit == "1" else unit
+
+    def reading(self, value: float | None) -> str:
+        """A residual statistic (reading unit) at the instrument's resolution, in the certificate's unit."""
+        return fixed(self.length(value, self.reading_unit), self.places)
 
 
-def decimals_for(uncertainty: float | None, default: int = 5) -> int:
-    """Enough decimals to show the expanded uncertainty with two significant digits."""
-    if not uncertainty or not math.isfinite(uncertainty):
-        return default
-    return int(min(8, max(2, 1 - math.floor(math.log10(abs(uncertainty))))))
-
-
-def _stats_rows(results: dict) -> list[dict]:
+def _stats_rows(results: dict, shown: Shown) -> list[dict]:
     rows = []
     for name in ("calibration", "validation"):
         pair = results["residuals"][name]
         if pair is None:
             continue
-        factor = results["improvement_factor"][name]
         for moment in ("before", "after"):
             s = pair[moment]
             rows.append(
                 {
                     "data": f"{name}, {'design model' if moment == 'before' else 'calibrated model'}",
                     "n": str(s["n"]),
-                    "rms": number(s["rms"]),
-                    "mean": number(s["mean"]),
-                    "std": number(s["std"]),
-                    "max": number(s["max_abs"]),
-                    "factor": number(factor, 1) if moment == "after" else "",
+                    "rms": shown.reading(s["rms"]),
+                    "mean": shown.reading(s["mean"]),
+                    "std": shown.reading(s["std"]),
+                    "max": shown.reading(s["max_abs"]),
+                    "factor": ratio(pair["before"]["rms"], s["rms"], results["device"].get("noise_sigma")) if moment == "after" else "",
                 }
             )
     return rows
@@ -71,46 +82,67 @@ def _difference(parameter: dict) -> float:
     return difference if turn is None else (difference + turn / 2) % turn - turn / 2
 
 
-def _parameter_rows(results: dict) -> list[dict]:
+def _parameter_rows(results: dict, shown: Shown) -> list[dict]:
+    """Identified values to the decimal of their expanded uncertainty; held ones as the spec gave them."""
     rows = []
     for p in results["parameters"]:
-        expanded = 2 * p["std"] if p["std"] is not None else None
-        decimals = decimals_for(expanded)
+        to = lambda value: shown.length(value, p["unit"])  # noqa: E731
+        expanded = to(2 * p["std"]) if p["std"] is not None else None
+        if p["free"] and expanded is not None:
+            value = lambda v: measured(v, expanded)  # noqa: E731
+        else:
+            value = lambda v: significant(v, 12)  # noqa: E731  (12 digits: a unit conversion's last bits)
         rows.append(
             {
                 "name": p["name"],
-                "unit": p["unit"],
-                "nominal": number(p["nominal"], decimals),
-                "value": number(p["value"], decimals),
-                "difference": number(_difference(p), decimals),
-                "expanded": number(expanded, decimals) if expanded is not None else "",
+                "unit": shown.unit_of(p["unit"]),
+                "nominal": value(to(p["nominal"])),
+                "value": value(to(p["value"])),
+                "difference": value(to(_difference(p))),
+                "expanded": measured(expanded, expanded) if expanded is not None else "",
                 "mark": "" if p["free"] else "held",
             }
         )
     return rows
 
 
-def _diagnosis(results: dict) -> dict:
+def _decision(candidates: list[dict], alpha: float | None) -> str:
+    """How a round decided, in words: the score tests, Holm's step-down over the distinguishable candidates at the
+    family-wise level, and where the smallest p-value stands against its threshold (diagnose/score.py)."""
+    tested = sorted(c["p_value"] for c in candidates if c["distinguishable"])
+    if not tested:
+        return "no candidate could be told apart from the geometry"
+    rule = f"score test of each candidate (chi-square on its columns), Holm's step-down over {counted(len(tested), 'distinguishable candidate')}"
+    if alpha is None:
+        return rule
+    threshold = alpha / len(tested)
+    verdict = "below" if tested[0] <= threshold else "not below"
+    return (f"{rule} at a family-wise {given(alpha)}: the smallest, {p_value(tested[0])}, is {verdict} its threshold "
+            f"{given(alpha)} / {len(tested)} = {significant(threshold, 2)}")
+
+
+def _diagnosis(results: dict, shown: Shown) -> dict:
     diagnosis = results["diagnosis"]
-    unit = results["device"]["unit"]
+    rms = lambda pair: f"{shown.reading(pair['calibration'])} / {shown.reading(pair['validation'])} {shown.unit_of(shown.reading_unit)}"  # noqa: E731
     rounds = []
     for i, r in enumerate(diagnosis["rounds"], start=1):
         accepted = r["accepted"]
         parameters = []
         if accepted:
             for p in accepted["parameters"]:
-                u = 2 * p["std"] if p["std"] is not None else None
-                parameters.append(f"{p['name']} = {number(p['value'], decimals_for(u))} +- {number(u, decimals_for(u))} {p['unit']} (k=2)")
-        top = [c for c in r["candidates"] if c["distinguishable"]][:3]
+                u = shown.length(2 * p["std"], p["unit"]) if p["std"] is not None else None
+                parameters.append(f"{p['name']} = {measured(shown.length(p['value'], p['unit']), u)} +- {measured(u, u)} {shown.unit_of(p['unit'])} (k=2)")
+        top = sorted((c for c in r["candidates"] if c["distinguishable"]), key=lambda c: c["p_value"])[:3]
         rounds.append(
             {
                 "number": str(i),
                 "outcome": r["note"],
                 "parameters": parameters,
-                "strongest": ", ".join(f"{c['id']} (S {c['statistic']:.1f}, p {c['p_value']:.2g})" for c in top) or "none",
+                "smallest": ", ".join(f"{c['id']} (S {c['statistic']:.1f} on {c['dof']} dof, {p_value(c['p_value'])})" for c in top) or "none",
+                "decision": _decision(r["candidates"], diagnosis.get("alpha")),
                 "not_distinguishable": ", ".join(c["id"] for c in r["candidates"] if not c["distinguishable"]) or "none",
-                "before": f"{number(r['rms_before']['calibration'])} / {number(r['rms_before']['validation'])} {unit}",
-                "after": f"{number(r['rms_after']['calibration'])} / {number(r['rms_after']['validation'])} {unit}",
+                "before": rms(r["rms_before"]),
+                "after": rms(r["rms_after"]),
             }
         )
     partly = [r["accepted"] for r in diagnosis["rounds"] if r.get("partly_explained") and r["accepted"]]
@@ -127,8 +159,8 @@ def _effect_name(effect: dict) -> str:
     return effect["type"] + (f" joint {effect['joint']}" if effect["joint"] else "")
 
 
-def _distance_rows(results: dict) -> list[dict]:
-    """Per-pose 3D distance statistics, before and after, for calibration and validation."""
+def _distance_rows(results: dict, shown: Shown) -> list[dict]:
+    """Per-pose 3D distance statistics, before and after, for calibration and validation (results in mm)."""
     block = results.get("residuals_3d")
     rows = []
     for name in ("calibration", "validation"):
@@ -136,58 +168,74 @@ def _distance_rows(results: dict) -> list[dict]:
         for moment in ("before", "after") if pair else ():
             s = pair[moment]
             label = f"{name}, {'design model' if moment == 'before' else 'calibrated model'}"
-            rows.append({"data": label, "n": str(s["n"]), "mean": number(s["mean"]), "rms": number(s["rms"]), "max": number(s["max"])})
+            at = lambda key: fixed(shown.length(s[key], block["unit"]), shown.places)  # noqa: E731
+            rows.append({"data": label, "n": str(s["n"]), "mean": at("mean"), "rms": at("rms"), "max": at("max")})
     return rows
 
 
-def _grid(results: dict) -> list[dict]:
+def _index_rows(rows: list[dict], label: str, results: dict, shown: Shown, centre, centre_unit: str) -> list[dict]:
+    """A task's index rows: values in the certificate's unit at the instrument's resolution, the factor where it
+    means something (report/numbers.improvement); a row whose values read as an earlier row's says so."""
+    out, first = [], {}
+    for r in rows:
+        unit = r["unit"]
+        noise = task_noise(results["device"].get("noise_sigma"), shown.reading_unit, unit, centre, centre_unit)
+        places = decimals(shown.length(noise, unit), shown.places)
+        design, calibrated = fixed(shown.length(r["design"], unit), places), fixed(shown.length(r["calibrated"], unit), places)
+        twin = first.setdefault((unit, design, calibrated), r[label])
+        out.append({
+            "index": r[label] + (f" (other points; equal to {twin}'s at these decimals)" if twin != r[label] else ""),
+            "unit": shown.unit_of(unit),
+            "design": design,
+            "calibrated": calibrated,
+            "factor": improvement(r["design"], r["calibrated"], noise),
+        })
+    return out
+
+
+def _grid(results: dict, shown: Shown) -> list[dict]:
     grid = results["evaluation"].get("grid_task") or {}
-    return [
-        {
-            "index": r["index"],
-            "unit": r["unit"],
-            "design": number(r["design"]),
-            "calibrated": number(r["calibrated"]),
-            "factor": number(r["improvement_factor"], 1),
-        }
-        for r in grid.get("indices", [])
-    ]
+    return _index_rows(grid.get("indices", []), "index", results, shown, grid.get("centre"), grid.get("unit", "mm"))
 
 
-def _features(results: dict) -> dict | None:
+def _features(results: dict, shown: Shown) -> dict | None:
     """Stone's feature identification: each joint's features with their accuracy (6.11-6.13), pseudo-DH table."""
     block = results["evaluation"].get("s_model_features")
     if not block:
         return None
     units = block["units"]
+    length = lambda v: shown.length(v, units["length"])  # noqa: E731
     residuals = block["residuals"]
     return {
-        "units": units,
+        "units": {**units, "length": shown.unit},
         "joints": [
             {
                 "joint": str(j["joint"]),
-                "radius": number(j["radius"], 3),
-                "range": number(j["range_deg"], 1),
-                "plane": number(j["plane_sigma"], 5),
-                "centre": number(j["centre_sigma"], 5),
+                "radius": measured(length(j["radius"]), length(j["centre_sigma"])),
+                "range": fixed(j["range_deg"], 1),
+                "plane": measured(j["plane_sigma"], j["plane_sigma"]),
+                "centre": measured(length(j["centre_sigma"]), length(j["centre_sigma"])),
             }
             for j in block["joints"]
         ],
         "table": [
-            {k: (number(v, 4) if k != "joint" else str(v)) for k, v in row.items()} for row in block["pseudo_dh"]
+            {k: str(v) if k == "joint" else fixed(length(v) if k in ("d", "a") else v, 4) for k, v in row.items()} for row in block["pseudo_dh"]
         ],
-        "rms_features": number(residuals["s_model_features"]["rms"]),
-        "rms_least_squares": number(residuals["least_squares"]["rms"]),
+        "rms_features": shown.reading(residuals["s_model_features"]["rms"]),
+        "rms_least_squares": shown.reading(residuals["least_squares"]["rms"]),
     }
 
 
-def _iso(results: dict) -> dict | None:
+def _iso(results: dict, shown: Shown) -> dict | None:
     iso = results["evaluation"].get("iso9283")
     if not iso or "poses" not in iso:
         return None
-    rows = [{"pose": r["pose"], "unit": r["unit"], "design": number(r["design"]), "calibrated": number(r["calibrated"]), "factor": number(r["improvement_factor"], 1)} for r in iso["poses"]]
     cube = iso.get("cube")  # results before armcal placed the cube have none
-    where = f"centre ({', '.join(number(v) for v in cube['centre'])}) {cube['unit']}, side {number(cube['side'])} {cube['unit']}: {cube['placement']}" if cube else ""
+    rows = _index_rows(iso["poses"], "pose", results, shown, cube["centre"] if cube else None, cube["unit"] if cube else "mm")
+    where = ""
+    if cube:
+        at = lambda v: significant(shown.length(v, cube["unit"]))  # noqa: E731
+        where = f"centre ({', '.join(at(v) for v in cube['centre'])}) {shown.unit}, side {at(cube['side'])} {shown.unit}: {cube['placement']}"
     return {"rows": rows, "tcp": iso["tool_centre_point"], "frame": iso["task_frame"], "cube": where}
 
 
@@ -211,7 +259,7 @@ def _plots(results: dict, svgs: dict[str, str]) -> list[dict]:
 def _flat_direction(flat: dict) -> str:
     """A flat direction in words: how flat (s_k / s_1) and the parameters it moves."""
     moved = ", ".join(f"{name} {component:+.2f}" for name, component in flat["parameters"])
-    return f"singular value {flat['ratio']:.2g} of the largest, along {moved}"
+    return f"singular value {significant(flat['ratio'], 2)} of the largest, along {moved}"
 
 
 def _parallel_note(axes: dict) -> str:
@@ -225,23 +273,39 @@ def _parallel_note(axes: dict) -> str:
 VARIANCE_VERDICTS = {"consistent": "consistent", "declared_too_small": "declared too small", "declared_too_large": "declared too large"}
 
 
-def _estimated_noise(noise: dict | None) -> dict | None:
+def _estimated_noise(noise: dict | None, shown: Shown) -> dict | None:
     """The noise estimated from the data: per group sigma +- u, its 95 % interval, and the test against the declared."""
     if not noise:
         return None
     rows = []
     for g in noise["groups"]:
         test = g["test"]
+        at = lambda v: shown.length(v, g["unit"])  # noqa: E731
+        u, unit = at(g["std"]), shown.unit_of(g["unit"])
         rows.append({
             "group": g["group"],
-            "sigma": f"{g['sigma']:.4g} +- {g['std']:.2g} {g['unit']}",  # as the terminal prints it
-            "interval": f"{g['interval'][0]:.4g} - {g['interval'][1]:.4g} {g['unit']}",
+            "sigma": f"{measured(at(g['sigma']), u)} +- {measured(u, u)} {unit}",
+            "interval": f"{measured(at(g['interval'][0]), u)} - {measured(at(g['interval'][1]), u)} {unit}",
             "readings": str(g["readings"]),
-            "declared": f"{g['declared']:.4g} {g['unit']}" if g["declared"] is not None else "auto (none declared)",
-            "test": f"{VARIANCE_VERDICTS[test['verdict']]} (p = {test['p_value']:.2g})" if test else "-",
+            "declared": f"{significant(at(g['declared']))} {unit}" if g["declared"] is not None else "auto (none declared)",
+            "test": f"{VARIANCE_VERDICTS[test['verdict']]} ({p_value(test['p_value'])})" if test else "-",
         })
-    return {"method": noise["method"], "rounds": str(noise["rounds"]), "converged": noise["converged"], "rows": rows,
+    return {"method": noise["method"], "rounds": counted(noise["rounds"], "round"), "converged": noise["converged"], "rows": rows,
             "level": f"{NOISE_CHECK_LEVEL:.0%}"}
+
+
+FACTOR_RULE = f"A factor is shown where the design model's figure exceeds the noise of one reading, '{AT_THE_NOISE}' where it does not."
+TASK_FACTOR_RULE = (FACTOR_RULE + " Where the calibrated figure is within the noise, the factor reads '> N', N = design figure / "
+                    "noise: what an instrument of that noise could confirm. For an angle the noise is the angle the instrument's noise per reading subtends at the task's "
+                    "distance from the robot base. A row that reads as an earlier one says so: other points whose errors agree to the decimals shown.")
+
+
+def _resolution(shown: Shown) -> str:
+    """Where the residual statistics' decimal comes from."""
+    if shown.noise is None:
+        return ""
+    return (f"Values without an uncertainty of their own are shown to the decimal of the noise of one reading, "
+            f"{measured(shown.noise, shown.noise)} {shown.unit_of(shown.reading_unit)} (two significant digits).")
 
 
 NOT_GIVEN = "not given in the spec"
@@ -283,58 +347,66 @@ def _origin(simulated: dict | None) -> tuple[bool, str]:
     return False, "measured (no truth.json of armcal simulate matches the data files)"
 
 
-def _acceptance(acceptance: dict | None) -> dict | None:
+def _acceptance(acceptance: dict | None, shown: Shown) -> dict | None:
     """The statement of conformity in words: figure, tolerance, rule, U, verdict."""
     if acceptance is None:
         return None
     unit = acceptance["unit"]
-    shown = lambda value: f"{number(value)} {unit}"  # noqa: E731
     guarded = acceptance["decision_rule"] == "guarded"
+    places = decimals(shown.length(acceptance["expanded_uncertainty"], unit)) if guarded else shown.places  # GUM 7.2.6 where U is known
+    at = lambda value: f"{fixed(shown.length(value, unit), places)} {shown.unit_of(unit)}"  # noqa: E731
     verdict = acceptance["verdict"].upper()
     relation = "at most" if acceptance["verdict"] == "pass" else "above"
     return {
         "statistic": STATISTICS[acceptance["statistic"]],
-        "value": shown(acceptance["value"]),
-        "tolerance": shown(acceptance["tolerance"]),
+        "value": at(acceptance["value"]),
+        "tolerance": at(acceptance["tolerance"]),
         "rule": GUARDED_RULE if guarded else SIMPLE_RULE,
-        "uncertainty": f"{shown(acceptance['expanded_uncertainty'])} (k = {acceptance['coverage_factor']:g})" if guarded else "not used (simple acceptance)",
-        "limit": shown(acceptance["acceptance_limit"]) + (" (tolerance less U)" if guarded else " (the tolerance)"),
+        "uncertainty": f"{at(acceptance['expanded_uncertainty'])} (k = {acceptance['coverage_factor']:g})" if guarded else "not used (simple acceptance)",
+        "limit": at(acceptance["acceptance_limit"]) + (" (tolerance less U)" if guarded else " (the tolerance)"),
         "verdict": verdict,
-        "statement": f"{verdict}: the figure {shown(acceptance['value'])} is {relation} the acceptance limit {shown(acceptance['acceptance_limit'])}.",
+        "statement": f"{verdict}: the figure {at(acceptance['value'])} is {relation} the acceptance limit {at(acceptance['acceptance_limit'])}.",
     }
 
 
-def _change(change: dict) -> str:
+def _change(change: dict, shown: Shown) -> str:
     z = f"z = {change['z']:.1f}" if change["z"] is not None else "no uncertainty"
-    return f"{change['name']} {number(change['old'])} -> {number(change['new'])} {change['unit']} ({z})"
+    at = lambda v: significant(shown.length(v, change["unit"]))  # noqa: E731
+    return f"{change['name']} {at(change['old'])} -> {at(change['new'])} {shown.unit_of(change['unit'])} ({z})"
 
 
-def _implausible(results: dict) -> list[str]:
+def _implausible(results: dict, shown: Shown) -> list[str]:
     """The identified robot values beyond their tolerance, one sentence each (results/plausibility.py)."""
     p = results.get("plausibility")
     if not p:
         return []
     source = "robot.tolerance" if p["from_spec"] else "default tolerance, the spec gives none"
-    return [
-        f"{v['name']} = {v['value']:.6g} {v['unit']}: {v['deviation']:+.4g} {v['unit']} from nominal {v['nominal']:.6g}, beyond "
-        f"{v['tolerance']:g} {v['unit']} ({source})" + (f"; std {v['std']:.3g} {v['unit']}" if v["std"] is not None else "")
-        + f": {WHY[v['why']]}"
-        for v in p["implausible"]
-    ]
+    lines = []
+    for v in p["implausible"]:
+        at = lambda x: significant(shown.length(x, v["unit"]))  # noqa: E731
+        unit = shown.unit_of(v["unit"])
+        deviation = at(v["deviation"])
+        lines.append(
+            f"{v['name']} = {at(v['value'])} {unit}: {'' if deviation.startswith('-') else '+'}{deviation} {unit} from nominal {at(v['nominal'])}, "
+            f"beyond {at(v['tolerance'])} {unit} ({source})" + (f"; std {significant(shown.length(v['std'], v['unit']), 3)} {unit}" if v["std"] is not None else "")
+            + f": {WHY[v['why']]}"
+        )
+    return lines
 
 
-def _history(results: dict) -> list[dict]:
+def _history(results: dict, shown: Shown) -> list[dict]:
     """Earlier calibrations of this robot, oldest first, with the parameters changed significantly since."""
     rows = []
     for h in results.get("history", []):
-        validation = f"{number(h['rms_validation'])} {h['unit']}" if h["rms_validation"] is not None else "no held-out data"
+        at = lambda v: f"{fixed(shown.length(v, h['unit']), shown.places)} {shown.unit_of(h['unit'])}"  # noqa: E731
+        validation = at(h["rms_validation"]) if h["rms_validation"] is not None else "no held-out data"
         rows.append({
             "date": h["created"][:10],
             "certificate": h["certificate_number"],
             "run_id": h["run_id"] or "not recorded",
             "status": h["status"],
-            "rms": f"{number(h['rms_calibration'])} {h['unit']} / {validation}",
-            "changes": [_change(c) for c in h["significant"]] or [f"none of {h['compared']} parameters compared"],
+            "rms": f"{at(h['rms_calibration'])} / {validation}",
+            "changes": [_change(c, shown) for c in h["significant"]] or [f"none of {counted(h['compared'], 'parameter')} compared"],
         })
     return rows
 
@@ -346,6 +418,7 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
     noise = results["noise_check"]
     git = spec["git"]
     simulated, origin = _origin(results.get("simulated"))
+    shown = Shown(results)
     return {
         "number": report["certificate_number"],
         "simulated": simulated,
@@ -363,8 +436,8 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
         },
         "traceability": _traceability(campaign),
         "temperature": _temperature(campaign),
-        "acceptance": _acceptance(results.get("acceptance")),
-        "history": _history(results),
+        "acceptance": _acceptance(results.get("acceptance"), shown),
+        "history": _history(results, shown),
         "family_alpha": f"{ALPHA * 100:g} %",
         "spec": {
             "path": spec["path"],
@@ -372,13 +445,13 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
             "git": (f"{git['commit']}" + (" (the spec file differs from this commit)" if git["dirty"] else " (clean)")) if git else "not in a git repository",
         },
         "status": status_words(results["status"], results.get("plausibility")),
-        "implausible": _implausible(results),
+        "implausible": _implausible(results, shown),
         "run_id": results.get("run_id") or "not recorded",
-        "solver": f"{results['solver']['method']}, {results['solver']['reason']}, {results['solver']['iterations']} iterations",
+        "solver": f"{results['solver']['method']}, {powers_of_ten(results['solver']['reason'])}, {counted(results['solver']['iterations'], 'iteration')}",
         "identifiability": {
             "rank": f"{identifiability['rank']} of {identifiability['n_parameters']}",
-            "condition": number(identifiability["condition_number"], 1),
-            "fixed": [(f["name"], f["reason"]) for f in identifiability["fixed"] if f["reason"] != "fixed in the spec"],
+            "condition": fixed(identifiability["condition_number"], 1),
+            "fixed": [(f["name"], powers_of_ten(f["reason"])) for f in identifiability["fixed"] if f["reason"] != "fixed in the spec"],
             "spec_fixed": str(sum(1 for f in identifiability["fixed"] if f["reason"] == "fixed in the spec")),
             "unidentifiable": ", ".join(identifiability["unidentifiable"]) or "none",
             "design_point": identifiability.get("design_point", "nominal"),
@@ -386,25 +459,28 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
             "parallel": [_parallel_note(p) for p in identifiability.get("parallel_axes", [])],
             "breakdown": _breakdown_rows(identifiability.get("breakdown") or {}),
         },
-        "unit": results["device"]["unit"],
-        "parameters": _parameter_rows(results),
-        "statistics": _stats_rows(results),
-        "distances": _distance_rows(results),
-        "distance_unit": (results.get("residuals_3d") or {}).get("unit", ""),
-        "grid": _grid(results),
+        "unit": shown.unit_of(shown.reading_unit),
+        "factor_rule": FACTOR_RULE,
+        "task_factor_rule": TASK_FACTOR_RULE,
+        "resolution": _resolution(shown),
+        "parameters": _parameter_rows(results, shown),
+        "statistics": _stats_rows(results, shown),
+        "distances": _distance_rows(results, shown),
+        "distance_unit": shown.unit,
+        "grid": _grid(results, shown),
         "grid_tcp": (results["evaluation"].get("grid_task") or {}).get("tool_centre_point", ""),
         "grid_frame": (results["evaluation"].get("grid_task") or {}).get("task_frame", ""),
         "grid_placement": (results["evaluation"].get("grid_task") or {}).get("placement", ""),
         "skipped_tasks": _skipped_tasks(results),
-        "features": _features(results),
-        "iso": _iso(results),
-        "diagnosis": _diagnosis(results),
+        "features": _features(results, shown),
+        "iso": _iso(results, shown),
+        "diagnosis": _diagnosis(results, shown),
         "plots": _plots(results, plots),
         "noise": {
-            "chi2": f"{noise['chi2']:.1f} on {noise['dof']} degrees of freedom (p = {noise['p_value']:.3g})",
+            "chi2": f"{noise['chi2']:.1f} on {noise['dof']} degrees of freedom ({p_value(noise['p_value'])})",
             "scaled": noise["covariance_scaled"],
         },
-        "estimated_noise": _estimated_noise(results.get("noise")),
+        "estimated_noise": _estimated_noise(results.get("noise"), shown),
         "version": results["armcal_version"],
     }
 

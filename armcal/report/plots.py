@@ -9,6 +9,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from armcal.report.numbers import significant  # noqa: E402
+from armcal.units import LENGTH_UNITS, factor  # noqa: E402
+
 
 STYLE = {"font.size": 8, "svg.fonttype": "none", "figure.dpi": 100}  # while drawing only; the caller's rcParams stay as they were
 SVG_SALT = "armcal"  # element ids from hashes of this and the content, not random: the same plot gives the same bytes
@@ -34,14 +37,47 @@ def _panels(count: int):
     return figure, list(axes.flat)
 
 
+SPARSE = 5  # a bin with fewer samples than this is drawn open: its mean rests on a few samples
+
+
 def _series(axis, binned: dict) -> None:
+    """Each series of a binned panel; 'before' only where the diagnosis changed something (else it hides under
+    'final'); bins of fewer than SPARSE samples drawn open and grey, with their count."""
+    unchanged = binned.get("before") == binned.get("after")
     for name, values in binned.items():
-        if name in ("x", "count", "joint"):
+        if name in ("x", "count", "joint") or (name == "before" and unchanged):
             continue
         style = SERIES_STYLE.get(name, dict(lw=2))
-        label = {"before": "before diagnosis", "after": "final"}.get(name, f"{name} (fitted)")
+        label = {"before": "before diagnosis", "after": "final" if not unchanged else "final (the diagnosis added nothing)"}.get(name, f"{name} (fitted)")
         axis.plot(binned["x"], values, label=label, **style)
+    sparse = [i for i, n in enumerate(binned["count"]) if n < SPARSE]
+    if sparse:
+        xs, ys = [binned["x"][i] for i in sparse], [binned["after"][i] for i in sparse]
+        axis.plot(xs, ys, ls="none", marker="o", ms=5, mfc="white", mec="0.5", label=f"bin of fewer than {SPARSE} samples (count beside)")
+        for x, y, i in zip(xs, ys, sparse):
+            axis.annotate(str(binned["count"][i]), (x, y), textcoords="offset points", xytext=(3, 3), fontsize=5, color="0.4")
     axis.axhline(0.0, color="0.8", lw=0.5)
+
+
+RESIDUAL_SERIES = ("before", "after")  # and each added effect's contribution: every series but x and count
+
+
+def in_unit(evidence: dict, unit: str) -> dict:
+    """The evidence with its residuals in ``unit`` where they are lengths (the certificate's one length unit)."""
+    if evidence["unit"] not in LENGTH_UNITS or unit == evidence["unit"]:
+        return evidence
+    k = factor("length", evidence["unit"]) / factor("length", unit)
+    scaled = lambda binned: {n: v if n in ("x", "count", "joint") else [k * e for e in v] for n, v in binned.items()}  # noqa: E731
+    out = {**evidence, "unit": unit}
+    out["joints"] = [scaled(b) for b in evidence["joints"]]
+    out["gravity_torque"] = [scaled(b) for b in evidence["gravity_torque"]]
+    for name in ("t", "temperature", "longitude"):
+        if name in evidence:
+            out[name] = scaled(evidence[name])
+    out["keys"] = [{**key, "rms_before": k * key["rms_before"], "rms_after": k * key["rms_after"]} for key in evidence["keys"]]
+    h = evidence["histogram"]
+    out["histogram"] = {**h, "edges": [k * e for e in h["edges"]], "noise_sigma": k * h["noise_sigma"], "mean": k * h["mean"], "std": k * h["std"]}
+    return out
 
 
 def histogram(evidence: dict) -> str:
@@ -50,7 +86,7 @@ def histogram(evidence: dict) -> str:
     centres = [(a + b) / 2 for a, b in zip(h["edges"][:-1], h["edges"][1:])]
     width = h["edges"][1] - h["edges"][0]
     axis.bar(centres, h["counts"], width=width, color="0.75", edgecolor="0.4", label="final residuals")
-    axis.plot(centres, h["expected"], color="black", lw=1.5, label=f"noise model, sigma {h['noise_sigma']:.3g} {evidence['unit']}")
+    axis.plot(centres, h["expected"], color="black", lw=1.5, label=f"noise model, sigma {significant(h['noise_sigma'], 2)} {evidence['unit']}")
     axis.set_xlabel(f"residual ({evidence['unit']})")
     axis.set_ylabel("count")
     axis.locator_params(axis="x", nbins=7)
@@ -67,7 +103,11 @@ def against(evidence: dict, section: str, xlabels: list[str]) -> str:
         axis.set_title(f"joint {binned['joint']}")
         axis.set_xlabel(xlabel)
         axis.set_ylabel(f"|residual| ({evidence['unit']})")
-    axes[0].legend(frameon=False, fontsize=6)
+    entries = {}
+    for axis in axes[: len(panels)]:
+        for handle, label in zip(*axis.get_legend_handles_labels()):
+            entries.setdefault(label, handle)
+    figure.legend(list(entries.values()), list(entries), loc="lower center", bbox_to_anchor=(0.5, 0.98), ncol=len(entries), frameon=False, fontsize=6)
     return svg(figure)
 
 
@@ -93,8 +133,9 @@ def per_key(evidence: dict) -> str:
 
 
 @plt.rc_context(STYLE)
-def draw_plots(evidence: dict) -> dict[str, str]:
-    """Every plot the evidence supports: file name -> SVG text."""
+def draw_plots(evidence: dict, unit: str) -> dict[str, str]:
+    """Every plot the evidence supports, residual lengths in ``unit``: file name -> SVG text."""
+    evidence = in_unit(evidence, unit)
     plots = {
         "residual_histogram.svg": histogram(evidence),
         "residual_vs_joint.svg": against(evidence, "joints", evidence["joint_axes"]),

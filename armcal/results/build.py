@@ -53,7 +53,7 @@ def build_results(loaded: LoadedSpec, figures: dict, **run) -> Results:
             "report": report_fields(loaded, created),
             "spec": {"path": str(loaded.path.resolve()), "sha256": loaded.sha256, "git": git_info(loaded.path)},
             "robot": {"name": spec.robot.name, "serial": spec.robot.serial, "convention": spec.robot.convention, "dof": spec.robot.dof},
-            "device": {"type": spec.device.type, "unit": stages.pop("unit")},
+            "device": {"type": spec.device.type, "unit": stages.pop("unit"), "noise_sigma": stages.pop("noise_sigma")},
             **stages,
             **run,
         }

@@ -80,11 +80,17 @@ def traceability(instrument) -> dict | None:
     return {**instrument.model_dump(), "calibrated": instrument.calibrated.isoformat() if instrument.calibrated else None}
 
 
+def certificate_unit(spec) -> str:
+    """The one length unit of a run's certificate and plots: report.unit, else the spec's length unit."""
+    return spec.report.unit or spec.robot.units.length
+
+
 def report_fields(loaded: LoadedSpec, created: str) -> dict:
     report = loaded.spec.report
     number = report.certificate_number or f"ARMCAL-{loaded.spec.robot.serial}-{created[:10]}-{loaded.sha256[:6].upper()}"
     return {
         "certificate_number": number,
+        "unit": certificate_unit(loaded.spec),
         "customer": report.customer,
         "operator": report.operator,
         "location": report.location,

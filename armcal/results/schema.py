@@ -34,6 +34,7 @@ class RobotInfo(_Frozen):
 class DeviceInfo(_Frozen):
     type: str
     unit: str  # unit of the residual statistics
+    noise_sigma: float | None = None  # the noise model's sigma of one reading (RMS), in unit; absent in older results
 
 
 class FixedParameter(_Frozen):
@@ -194,6 +195,7 @@ class Diagnosis(_Frozen):
     added_effects: list[EffectResult]
     unexplained: bool
     chosen_on: str | None = None  # the data that judged the candidates (diagnose.holdout)
+    alpha: float | None = None  # family-wise level of a round's score tests (Holm); absent in older results
     evidence: dict | None = None
     plots: list[str] = []
 
@@ -306,6 +308,7 @@ class Campaign(_Frozen):
 
 class ReportInfo(_Frozen):
     certificate_number: str
+    unit: str | None = None  # the certificate's length unit (report.unit, else the spec's); absent in older results
     customer: str | None
     operator: str | None
     location: str | None

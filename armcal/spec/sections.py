@@ -9,6 +9,7 @@ from pydantic import Field, model_validator
 
 from armcal.spec.base import Angle, Length, Number, SpecModel
 from armcal.spec.effect_vocabulary import DEG, EFFECT_TYPES, Effect
+from armcal.units import LENGTH_UNITS
 
 class Data(SpecModel):
     """Measured data files (CSV, contract columns), relative to the spec file."""
@@ -114,6 +115,7 @@ class Report(SpecModel):
     iso9283_cube: IsoCube | None = Field(
         None, description="where the ISO 9283 cube stands; left out, armcal places the largest cube the robot reaches near its workspace's centre"
     )
+    unit: Literal[tuple(LENGTH_UNITS)] | None = Field(None, description="the certificate's one length unit; default: robot.units.length")  # type: ignore[valid-type]
     certificate_number: str | None = Field(None, description="default: ARMCAL-<serial>-<date>-<spec hash>")
     customer: str | None = Field(None, description="printed on the certificate")
     operator: str | None = Field(None, description="who calibrated, printed with the signature lines")

@@ -106,7 +106,10 @@ def test_guarded_acceptance_against_an_independent_rms_and_jackknife_uncertainty
     expected = "pass" if value + k * jackknife <= TOLERANCE_MM else "fail"
     assert acceptance["verdict"] == expected
     text = " ".join(_pdf_pages(folder / "out" / "certificate.pdf"))
-    assert f"{expected.upper()}: the figure {value:.4f} mm" in text and "guarded acceptance (ILAC-G8:2019 4.2.3)" in text
+    unit = results["report"]["unit"]  # the certificate's one length unit
+    scale = {"mm": 1.0, "cm": 10.0, "m": 1000.0}[unit]
+    places = max(0, 1 - int(f"{acceptance['expanded_uncertainty'] / scale:.1e}".split("e")[1]))  # U to two significant digits (GUM 7.2.6)
+    assert f"{expected.upper()}: the figure {value / scale:.{places}f} {unit}" in text and "guarded acceptance (ILAC-G8:2019 4.2.3)" in text
 
 
 def test_data_without_their_truth_are_not_marked_simulated(measured):

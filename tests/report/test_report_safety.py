@@ -200,8 +200,8 @@ EVIDENCE = {
 
 def test_drawing_plots_twice_gives_the_same_svg_and_leaves_rcparams_alone():
     before = dict(matplotlib.rcParams)
-    first = draw_plots(EVIDENCE)
-    assert first == draw_plots(EVIDENCE) and "<dc:date>" not in first["residual_histogram.svg"]
+    first = draw_plots(EVIDENCE, "mm")
+    assert first == draw_plots(EVIDENCE, "mm") and "<dc:date>" not in first["residual_histogram.svg"]
     assert dict(matplotlib.rcParams) == before
 
 

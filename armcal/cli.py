@@ -396,16 +396,20 @@ def import_urdf(
     tip: Annotated[str, typer.Option("--tip", help="The link the chain ends at: the spec's tool frame.", metavar="LINK")],
     out: Annotated[Path, typer.Option("--out", help="The spec (YAML) to write.", metavar="SPEC")],
     force: Annotated[bool, typer.Option("--force", help="Replace an existing spec.")] = False,
+    convention: Annotated[str | None, typer.Option("--convention", help="dh, mdh or six_parameter (default: the simplest the chain's axes allow).", metavar="CONVENTION")] = None,
 ) -> None:
-    """A six_parameter spec of a URDF's chain from one link to another, device and procedure to edit (docs/export.md)."""
+    """A spec of a URDF's chain from one link to another, device and procedure to edit (docs/export.md)."""
     from armcal.fileio import refuse_replacing, write_text_atomic
-    from armcal.importers.six_parameter import six_parameter_spec
+    from armcal.importers.spec_text import imported_spec
     from armcal.importers.urdf import read_urdf
 
     refuse_replacing([out], [source], force)
     chain = read_urdf(source, base, tip)
-    write_text_atomic(out, six_parameter_spec(chain, source.name, base, tip))
-    typer.echo(f"wrote {out}: {len(chain.joints)} joints from '{base}' to '{tip}'" + (f", fixed joints merged: {', '.join(chain.merged)}" if chain.merged else ""))
+    spec = imported_spec(chain, source.name, base, tip, convention)
+    write_text_atomic(out, spec.text)
+    typer.echo(f"wrote {out}: {len(chain.joints)} joints from '{base}' to '{tip}', {spec.convention}" + (f", fixed joints merged: {', '.join(chain.merged)}" if chain.merged else ""))
+    if spec.reason:
+        typer.echo(f"  {spec.convention}, {spec.reason}")
     typer.echo("  edit its serial, device and procedure: they are placeholders")
 
 

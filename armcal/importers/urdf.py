@@ -6,7 +6,8 @@ rotation R = Rz(yaw) Ry(pitch) Rx(roll), the motion Rot(axis, q) (revolute, cont
 Rot(axis, q) = S Rot(z, q) S^-1 (likewise the translation), so S ends the fixed transform before the joint and
 S^-1 starts the next one; fixed joints multiply into the transform they sit in (their inverse where the chain
 climbs from BASE to a link above TIP, as from ROS-Industrial's base to base_link). The chain is then
-T = links[0] J_1(q_1) links[1] ... J_n(q_n) links[n], J_i = Rot(z, q_i) or Trans(0, 0, q_i), in mm.
+T = links[0] J_1(q_1) links[1] ... J_n(q_n) links[n], J_i = Rot(z, q_i) or Trans(0, 0, q_i), in mm. Each moving
+joint keeps the name of the link it moves and that link's frame S^-1 in the frame the joint turns.
 
 The file is only parsed, never run: no xacro, no DOCTYPE (so no entities to expand), meshes, inertias and
 everything else off the chain ignored. What is read is checked whole: the joints must make one tree from a single
@@ -42,6 +43,8 @@ class UrdfJoint:
     type: str  # revolute or prismatic
     limits: tuple[float, float]  # rad or mm
     continuous: bool
+    link: str  # the link it moves (its child)
+    frame: np.ndarray  # that link's frame in the frame the joint turns, z on the axis: S^-1 (mm)
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,13 @@ class UrdfChain:
     links: tuple[np.ndarray, ...]  # n + 1 fixed transforms (mm): T = links[0] J_1 links[1] ... J_n links[n]
     merged: tuple[str, ...]  # the fixed joints multiplied into the links
     path: Path | None = None  # the URDF file read
+
+    def axes(self) -> list[np.ndarray]:
+        """The frames joints 1..n turn, z on their axes, in BASE at q = 0: links[0] links[1] ... links[i - 1]."""
+        out = [self.links[0]]
+        for link in self.links[1:-1]:
+            out.append(out[-1] @ link)
+        return out
 
 
 class _Document:
@@ -142,7 +152,7 @@ def read_urdf(path: Path, base: str, tip: str) -> UrdfChain:
         S = _z_onto(axis / np.linalg.norm(axis))
         links.append(pending @ origin @ S)
         pending = S.T
-        joints.append(UrdfJoint(name, MOVING[kind], _limits(document, element, kind), kind == "continuous"))
+        joints.append(UrdfJoint(name, MOVING[kind], _limits(document, element, kind), kind == "continuous", element.find("child").get("link"), S.T))
     if not joints:
         raise UserError(f"{path}: no revolute, continuous or prismatic joint between '{base}' and '{tip}'")
     links.append(pending)

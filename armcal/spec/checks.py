@@ -31,7 +31,7 @@ def _robot(spec: Spec) -> Iterator[Problem]:
         if name in seen:
             yield ("robot", "joints", i, "name"), f"joint name '{name}' is already used by joint {seen[name] + 1}"
         seen[name] = i
-    reserved = {"base", "tool", *seen, *(f"L{i}" for i in range(1, robot.dof + 2))}
+    reserved = {"base", "tool", *seen, *(f"L{i}" for i in range(1, robot.dof + 2)), *robot.link_names()}  # URDF export: a link each
     for name, target in robot.targets.items():
         if name in reserved or "." in name:
             yield ("robot", "targets", name), f"target name '{name}' clashes with a joint, link, base or tool name"
@@ -41,11 +41,24 @@ def _robot(spec: Spec) -> Iterator[Problem]:
                 f"link {target.link} does not exist: this robot has links 0..{robot.dof}",
             )
     yield from _mass_links(robot.masses, ("robot", "masses"), robot.dof)
+    yield from _urdf_names(robot)
     if isinstance(robot, SixParameterRobot) and len(robot.links) != robot.dof + 1:
         yield (
             ("robot", "links"),
             f"a six_parameter robot with {robot.dof} joints needs {robot.dof + 1} links, got {len(robot.links)}",
         )
+
+
+def _urdf_names(robot) -> Iterator[Problem]:
+    """robot.urdf names one link per joint, and each URDF link once."""
+    if robot.urdf is None:
+        return
+    if robot.urdf.links and len(robot.urdf.links) != robot.dof:
+        yield ("robot", "urdf", "links"), f"{len(robot.urdf.links)} links for {robot.dof} joints: name the link each joint moves, in order"
+        return
+    names = robot.link_names()
+    for name in sorted({name for name in names if names.count(name) > 1}):
+        yield ("robot", "urdf"), f"the URDF link name '{name}' is given twice: the world, each link and the tool are links of their own"
 
 
 def _mass_links(masses: list, loc: Loc, dof: int) -> Iterator[Problem]:

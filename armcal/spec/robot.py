@@ -185,6 +185,26 @@ class Tolerance(SpecModel):
     angle: Angle = Field("2 deg", validate_default=True, gt=0.0, description="plausible deviation of an identified angle from its nominal value")
 
 
+class UrdfLink(SpecModel):
+    """A URDF link moved by joint i: its name, and its frame in the frame F_(i-1) Rot(z, q_i) that joint i turns."""
+
+    name: str = Field(description="the link's name in the URDF")
+    z: Length = Field(0.0, description="the link frame's origin along joint i's axis (a URDF link's origin lies on its joint's axis)")
+    rz: Angle = Field(0.0, description="the link frame's orientation: Trans(0, 0, z) Rot(z, rz) Rot(y, ry) Rot(x, rx)")
+    ry: Angle = Field(0.0, description="see rz")
+    rx: Angle = Field(0.0, description="see rz")
+
+
+class UrdfNames(SpecModel):
+    """The names (and link frames) of the URDF a chain came from, written back by armcal export --format urdf."""
+
+    base: str = Field("world", description="the URDF link of the spec's world frame (import-urdf's --base)")
+    tool: str = Field("tool0", description="the URDF link of the tool frame (import-urdf's --tip)")
+    links: list[UrdfLink] = Field(
+        [], description="one per joint, in order: the link it moves (default link_1 .. link_n, frame F_(i-1) Rot(z, q_i))"
+    )
+
+
 class RobotBase(SpecModel):
     """Identity, units, base and tool transforms and targets common to all conventions."""
 
@@ -200,6 +220,11 @@ class RobotBase(SpecModel):
         description="plausible deviations of identified values from nominal (length, angle); a value beyond them is "
         "reported as implausible. Default when not given: 10 mm and 2 deg",
     )
+    urdf: UrdfNames | None = Field(
+        None,
+        description="the names of the URDF the chain was imported from (import-urdf writes them): export --format urdf "
+        "names its links so, and places each link's frame as the URDF did, so meshes and controller configs attach",
+    )
     masses: list[LinkMass] = Field(
         [],
         description="the robot's mass layout (the maker's data): the gravity torque of compliance where an effect names "
@@ -213,6 +238,12 @@ class RobotBase(SpecModel):
 
     def joint_names(self) -> list[str]:
         return [j.name or f"j{i}" for i, j in enumerate(self.joints, start=1)]  # type: ignore[attr-defined]
+
+    def link_names(self) -> list[str]:
+        """The URDF names of the world, links 1..n and the tool: robot.urdf's, else world, link_1 .. link_n, tool0."""
+        names = self.urdf or UrdfNames()
+        links = [link.name for link in names.links] or [f"link_{i}" for i in range(1, self.dof + 1)]
+        return [names.base, *links, names.tool]
 
 
 class DHRobot(RobotBase):

@@ -118,15 +118,20 @@ def test_an_encoder_scale_the_urdf_cannot_hold_is_named(tmp_path):
     assert export(path, "urdf").left_out == ("encoder scale of j3",)
 
 
-def test_the_dh_table_reads_back_the_spec_and_refuses_other_chains(tmp_path):
+def test_the_dh_table_reads_back_the_spec_and_refuses_an_encoder_scale(tmp_path):
+    """A dh spec's own values; a six_parameter chain with k != 1 has no table (its joint does not move by q)."""
     path = _spec(tmp_path, "ur10.yaml", CALIBRATED_UR10)
     rows = [line.split("\t") for line in export(path, "dh-table").text.splitlines() if not line.startswith("#")]
     assert rows[0] == ["joint", "type", "theta (deg)", "d (mm)", "a (mm)", "alpha (deg)", "beta (deg)"]
     lift = dict(zip(rows[0], rows[2]))
     assert lift["joint"] == "shoulder_lift" and float(lift["a (mm)"]) == -612.4 and float(lift["beta (deg)"]) == 0.001
     assert float(dict(zip(rows[0], rows[4]))["alpha (deg)"]) == 89.99
-    result = armcal_cli("export", str(SPECS / "puma560_six.yaml"), "--format", "dh-table", "--out", str(tmp_path / "t.txt"))
-    assert result.returncode == 1 and "six_parameter; a DH table cannot hold it" in result.stderr and "Traceback" not in result.stderr
+    scaled = _spec(tmp_path, "puma560_six.yaml", [("    - {name: j3, limits: [-45, 225], theta0: 0, k: 1}",
+                                                   "    - {name: j3, limits: [-45, 225], theta0: 0, k: 1.001}")])
+    result = armcal_cli("export", scaled, "--format", "dh-table", "--out", tmp_path / "t.txt")
+    assert result.returncode == 1 and "Traceback" not in result.stderr and not (tmp_path / "t.txt").exists()
+    assert result.stderr == (f"error: {scaled}: a DH table's joints move by their readings (theta + q); the encoder scale of "
+                             "j3 (k = 1.001) is not 1, so no table holds the chain (export urdf or json)\n")
 
 
 def test_json_from_a_run_folder_carries_the_results_uncertainties_and_nothing_is_replaced(tmp_path):

@@ -69,7 +69,7 @@ def _campaign(folder, spec_text, truth, seed):
 def gen3(tmp_path_factory):
     root = tmp_path_factory.mktemp("gen3")
     (root / "gen3.urdf").write_text(_urdf())
-    imported = armcal_cli("import-urdf", root / "gen3.urdf", "--base", "l0", "--tip", "l7", "--out", root / "imported.yaml")
+    imported = armcal_cli("import-urdf", root / "gen3.urdf", "--base", "l0", "--tip", "l7", "--out", root / "imported.yaml", "--convention", "six_parameter")
     assert imported.returncode == 0, imported.stderr
     text = (root / "imported.yaml").read_text().replace('"EDIT-ME"', "GEN3-SIM")
     text = text.replace("tool_point: {link: 6, x: {value: 0, vary: false}, y: {value: 0, vary: false}", "smr: {link: 6, x: {value: 40, vary: false}, y: {value: -25, vary: false}")

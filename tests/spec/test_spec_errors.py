@@ -149,3 +149,19 @@ def test_tracker_orientation_needs_its_noise(tmp_path):
     path = tmp_path / "orientation.yaml"
     path.write_text(text)
     assert [(f, m) for _, _, f, m in _problems(path)] == [("device.orientation_noise", "a tracker that measures orientation needs orientation_noise (its sigma)")]
+
+
+@pytest.mark.parametrize("insert, expected", [  # lines inserted after the robot's convention (targets: before its own)
+    ("  urdf: {links: [{name: a}, {name: b}]}", [("robot.urdf.links", "2 links for 6 joints: name the link each joint moves, in order")]),
+    ("  urdf: {base: b, tool: a, links: [{name: a}, {name: b}, {name: c}, {name: d}, {name: e}, {name: f}]}",
+     [("robot.urdf", "the URDF link name 'a' is given twice: the world, each link and the tool are links of their own"),
+      ("robot.urdf", "the URDF link name 'b' is given twice: the world, each link and the tool are links of their own")]),
+    ("  targets:\n    link_2: {link: 2}", [("robot.targets.link_2", "target name 'link_2' clashes with a joint, link, base or tool name")]),
+])
+def test_urdf_link_names_are_each_one_link(tmp_path, insert, expected):
+    """robot.urdf names one link per joint, and the exported URDF's links (world, the links, the tool, each target) once."""
+    path = tmp_path / "names.yaml"
+    text = (SPECS / "puma560_dh.yaml").read_text()
+    anchor = "  targets:\n" if insert.startswith("  targets:") else "  convention: dh\n"
+    path.write_text(text.replace(anchor, f"{insert}\n" if anchor == "  targets:\n" else f"{anchor}{insert}\n", 1))
+    assert [(field, message) for _, _, field, message in _problems(path)] == expected

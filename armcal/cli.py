@@ -329,6 +329,7 @@ def new(
     typer.echo(f"wrote {path}: {entry.robot.name}, {device}; check it with `armcal validate {path}`")
 
 
+UNREACHABLE = 3  # compensate's exit code when a target is unreachable (as run's 3: output written, the job not done)
 CalibratedArg = Annotated[Path, typer.Argument(help="A calibrated spec (a run's calibrated.yaml) or a run's output folder.", metavar="CALIBRATED", show_default=False)]
 OutFileOption = Annotated[Path, typer.Option("--out", help="The file to write.", metavar="FILE")]
 ForceOption = Annotated[bool, typer.Option("--force", help="Replace an existing file.")]
@@ -367,8 +368,12 @@ def compensate(
     targets: Annotated[Path, typer.Option("--targets", help="CSV of targets: name, x, y, z, rx, ry, rz (spec units), optional seeds q1..qn.", metavar="TARGETS")],
     out: OutFileOption,
     force: ForceOption = False,
+    allow_unreachable: Annotated[bool, typer.Option("--allow-unreachable", help="Exit 0 even when a target is unreachable.")] = False,
 ) -> None:
-    """Joint commands that reach Cartesian targets on the calibrated robot, its effects included (docs/export.md)."""
+    """Joint commands that reach Cartesian targets on the calibrated robot, its effects included (docs/export.md).
+
+    Exit 3 when a target is unreachable: its row says why, and every other row is written all the same.
+    """
     from armcal.export import calibration_source
     from armcal.export.compensation import compensate as compensated_commands
     from armcal.dataio.reader import data_text
@@ -386,6 +391,8 @@ def compensate(
         typer.echo(f"  not compensated (they do not follow the joints alone): {', '.join(left_out)}")
     if results is None:
         typer.echo("  no corrected Cartesian targets: they need the nominal model, in a run's results.json (give the run's folder)")
+    if unreached and not allow_unreachable:
+        raise typer.Exit(UNREACHABLE)
 
 
 @app.command("import-urdf", cls=Command)

@@ -87,9 +87,14 @@ def user_errors(command: Callable) -> Callable:
 def validate(
     specs: Annotated[list[Path], typer.Argument(help="Calibration specs (YAML).", metavar="SPEC", show_default=False)],
 ) -> None:
-    """Check specs; list every problem with file, line, column and field (exit 1 if any spec has one)."""
+    """Check specs; list every problem with file, line, column and field (exit 1 if any spec has one).
+
+    Warnings (exit 0 all the same): data files not there yet, stand-ins armcal new or import-urdf wrote that are
+    unchanged (spec placeholders).
+    """
     from armcal.spec import load_spec
     from armcal.spec.loader import missing_data_files
+    from armcal.spec.placeholders import placeholder_warnings
     from armcal.terminal import spec_summary
 
     failed = False
@@ -101,7 +106,7 @@ def validate(
             failed = True
             continue
         typer.echo(spec_summary(loaded))
-        for issue in missing_data_files(loaded):
+        for issue in [*missing_data_files(loaded), *placeholder_warnings(loaded)]:
             typer.echo(f"warning: {issue}", err=True)
     if failed:
         raise typer.Exit(1)
@@ -413,7 +418,7 @@ def import_urdf(
     chain = read_urdf(source, base, tip)
     write_text_atomic(out, six_parameter_spec(chain, source.name, base, tip))
     typer.echo(f"wrote {out}: {len(chain.joints)} joints from '{base}' to '{tip}'" + (f", fixed joints merged: {', '.join(chain.merged)}" if chain.merged else ""))
-    typer.echo("  edit its serial, device and procedure: they are placeholders")
+    typer.echo(f"  its serial, target, device and procedure are stand-ins: replace them (armcal validate {out} lists them)")
 
 
 @app.command(name="compare", cls=Command)

@@ -1,4 +1,4 @@
-"""A URDF chain as a spec in Goswami's six_parameter model, with a placeholder device and procedure to edit.
+"""A URDF chain as a spec in Goswami's six_parameter model, with stand-ins (its placeholders) for the serial, target, device and procedure.
 
 Goswami's chain T = T1L T1J T2L ... TnJ T(n+1)L (3), each link Trans(x, y, z) Rot(z, alpha) Rot(y, beta)
 Rot(x, gamma), each joint Rot(z, theta) (Trans(0, 0, theta) when prismatic), theta = theta0 + k q (2): the
@@ -21,6 +21,7 @@ from armcal.fileio import INPUT_LIMITS
 from armcal.importers.urdf import UrdfChain
 from armcal.kinematics.transforms import pose_from_matrix
 from armcal.spec.loader import spec_from_bytes
+from armcal.spec.placeholders import marker_lines
 from armcal.units import snapped
 
 LINK = ("x", "y", "z", "alpha", "beta", "gamma")  # Trans(x, y, z) Rot(z, alpha) Rot(y, beta) Rot(x, gamma)
@@ -78,11 +79,11 @@ def six_parameter_spec(chain: UrdfChain, source: str, base: str, tip: str) -> st
                      " theta0: {value: 0, vary: false}, k: {value: 1, vary: false}}")
     lines += [
         f"  tool: {_flow(_pose(chain.links[-1], TOOL))}  # link {quoted(tip)} on link {n}",
-        "  # PLACEHOLDER, edit: the points or frames your instrument measures (here the tool's origin, on the last link).",
+        "  # A stand-in: the points or frames your instrument measures (here the tool's origin, on the last link).",
         "  targets:",
         f"    {TARGET}: {_flow([f'link: {n}', *_pose(chain.links[-1], TOOL[:3], fixed=True)])}",
-        "# PLACEHOLDER, edit: a spec needs a device and a procedure. These stand-ins (a laser tracker measuring the tool's",
-        "# origin at 100 random poses) say nothing about your measurement: see docs/spec.md and the device guides.",
+        "# Stand-ins: a spec needs a device and a procedure. These (a laser tracker measuring the tool's origin at 100",
+        "# random poses) say nothing about your measurement: see docs/spec.md and the device guides.",
         "device:",
         "  type: tracker",
         f"  targets: [{TARGET}]",
@@ -91,7 +92,9 @@ def six_parameter_spec(chain: UrdfChain, source: str, base: str, tip: str) -> st
         "  type: poses",
         "  count: 100",
     ]
-    return _loadable("\n".join(lines) + "\n", str(chain.path or source))
+    text = "\n".join(lines) + "\n"
+    text += "\n".join(marker_lines(text, ["robot.serial", "robot.targets", "device", "procedure"])) + "\n"
+    return _loadable(text, str(chain.path or source))
 
 
 def _loadable(text: str, source: str) -> str:

@@ -90,8 +90,9 @@ def validate(
     """Check specs; list every problem with file, line, column and field (exit 1 if any spec has one).
 
     Warnings (exit 0 all the same): data files not there yet, stand-ins armcal new or import-urdf wrote that are
-    unchanged (spec placeholders).
+    unchanged (spec placeholders), a target on the axis of the joint it rides on.
     """
+    from armcal.kinematics.axis_targets import axis_warnings
     from armcal.spec import load_spec
     from armcal.spec.loader import missing_data_files
     from armcal.spec.placeholders import placeholder_warnings
@@ -106,7 +107,7 @@ def validate(
             failed = True
             continue
         typer.echo(spec_summary(loaded))
-        for issue in [*missing_data_files(loaded), *placeholder_warnings(loaded)]:
+        for issue in [*missing_data_files(loaded), *placeholder_warnings(loaded), *axis_warnings(loaded)]:
             typer.echo(f"warning: {issue}", err=True)
     if failed:
         raise typer.Exit(1)

@@ -27,17 +27,18 @@ from armcal.units import snapped
 LINK = ("x", "y", "z", "alpha", "beta", "gamma")  # Trans(x, y, z) Rot(z, alpha) Rot(y, beta) Rot(x, gamma)
 TOOL = ("x", "y", "z", "rz", "ry", "rx")  # Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx): the same product
 TARGET = "tool_point"
+OFF_AXIS = 50.0  # mm: the stand-in target's distance from the last joint's axis beyond the tool's origin (the tracker guide's reflector)
 
 
 def _number(value: float, digits: int = 15) -> str:
     return f"{snapped(value):.{digits}g}"
 
 
-def _pose(T: np.ndarray, fields: tuple[str, ...], fixed: bool = False) -> list[str]:
-    """``field: value`` items of a transform in mm and deg (x, y, z, then the ZYX angles), held fixed if ``fixed``."""
+def _pose(T: np.ndarray, fields: tuple[str, ...]) -> list[str]:
+    """``field: value`` items of a transform in mm and deg (x, y, z, then the ZYX angles)."""
     x, y, z, rz, ry, rx = pose_from_matrix(T)
     values = (x, y, z, *np.rad2deg([rz, ry, rx]))
-    return [f"{field}: " + (f"{{value: {_number(v)}, vary: false}}" if fixed else _number(v)) for field, v in zip(fields, values)]
+    return [f"{field}: {_number(v)}" for field, v in zip(fields, values)]
 
 
 def _flow(items: list[str]) -> str:
@@ -79,11 +80,12 @@ def six_parameter_spec(chain: UrdfChain, source: str, base: str, tip: str) -> st
                      " theta0: {value: 0, vary: false}, k: {value: 1, vary: false}}")
     lines += [
         f"  tool: {_flow(_pose(chain.links[-1], TOOL))}  # link {quoted(tip)} on link {n}",
-        "  # A stand-in: the points or frames your instrument measures (here the tool's origin, on the last link).",
+        f"  # A stand-in: the points or frames your instrument measures (here a point {OFF_AXIS:g} mm farther from joint {n}'s axis",
+        "  # than the tool's origin: a point on the axis does not see the joint turn, docs/devices/tracker.md).",
         "  targets:",
-        f"    {TARGET}: {_flow([f'link: {n}', *_pose(chain.links[-1], TOOL[:3], fixed=True)])}",
-        "# Stand-ins: a spec needs a device and a procedure. These (a laser tracker measuring the tool's origin at 100",
-        "# random poses) say nothing about your measurement: see docs/spec.md and the device guides.",
+        f"    {TARGET}: {_flow([f'link: {n}', *_off_axis(chain.links[-1])])}",
+        "# Stand-ins: a spec needs a device and a procedure. These (a laser tracker measuring that point at 100 random",
+        "# poses) say nothing about your measurement: see docs/spec.md and the device guides.",
         "device:",
         "  type: tracker",
         f"  targets: [{TARGET}]",
@@ -95,6 +97,15 @@ def six_parameter_spec(chain: UrdfChain, source: str, base: str, tip: str) -> st
     text = "\n".join(lines) + "\n"
     text += "\n".join(marker_lines(text, ["robot.serial", "robot.targets", "device", "procedure"])) + "\n"
     return _loadable(text, str(chain.path or source))
+
+
+def _off_axis(tool: np.ndarray) -> list[str]:
+    """``x, y, z`` items (mm, held fixed) of a point OFF_AXIS mm farther from the last joint's axis (z of the last link's
+    frame) than the tool's origin, outwards along the radius (along x for an origin on the axis)."""
+    x, y, z = tool[:3, 3]
+    radius = np.hypot(x, y)
+    ux, uy = (x / radius, y / radius) if radius > 1e-9 else (1.0, 0.0)
+    return [f"{field}: {{value: {_number(v)}, vary: false}}" for field, v in zip("xyz", (x + OFF_AXIS * ux, y + OFF_AXIS * uy, z))]
 
 
 def _loadable(text: str, source: str) -> str:

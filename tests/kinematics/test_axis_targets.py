@@ -5,7 +5,10 @@ joint 2's axis (z of frame 1) is the line x = -a2, y = 0; in frame 6 (a6 = 0, al
 import pytest
 from conftest import SPECS, armcal_cli
 
+from armcal.devices.registry import INSTRUMENTS
 from armcal.kinematics.axis_targets import targets_on_axes
+from armcal.new_spec import new_spec_text
+from armcal.robot_library import library_robot, names
 from armcal.spec import load_spec
 
 A2 = 43.18  # cm, Table 6-2
@@ -48,3 +51,13 @@ def test_a_frame_whose_orientation_is_read_sees_the_joint_turn(tmp_path):
     assert targets_on_axes(load_spec(SPECS / "ur10.yaml").spec) == []
     (tmp_path / "positions.yaml").write_text(text.replace("  orientation: true\n", "").replace("  orientation_noise: 0.002\n", ""))
     assert [(name, joint) for name, joint, _ in targets_on_axes(load_spec(tmp_path / "positions.yaml").spec)] == [("tmac", 6)]
+
+
+def test_no_target_armcal_new_writes_sits_on_an_axis(tmp_path):
+    """Every library robot with every device: the targets `armcal new` writes (a flange point 50 mm off the last axis,
+    a sparker per link, Goswami's spheres) lie off the axis of the joint that carries them."""
+    for name in names():
+        for device in INSTRUMENTS:
+            path = tmp_path / f"{name}-{device}.yaml"
+            path.write_text(new_spec_text(library_robot(name), device, path.stem))
+            assert targets_on_axes(load_spec(path).spec) == [], (name, device)

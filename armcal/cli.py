@@ -87,9 +87,15 @@ def user_errors(command: Callable) -> Callable:
 def validate(
     specs: Annotated[list[Path], typer.Argument(help="Calibration specs (YAML).", metavar="SPEC", show_default=False)],
 ) -> None:
-    """Check specs; list every problem with file, line, column and field (exit 1 if any spec has one)."""
+    """Check specs; list every problem with file, line, column and field (exit 1 if any spec has one).
+
+    Warnings (exit 0 all the same): data files not there yet, stand-ins armcal new or import-urdf wrote that are
+    unchanged (spec placeholders), a target on the axis of the joint it rides on.
+    """
+    from armcal.kinematics.axis_targets import axis_warnings
     from armcal.spec import load_spec
     from armcal.spec.loader import missing_data_files
+    from armcal.spec.placeholders import placeholder_warnings
     from armcal.terminal import spec_summary
 
     failed = False
@@ -101,7 +107,7 @@ def validate(
             failed = True
             continue
         typer.echo(spec_summary(loaded))
-        for issue in missing_data_files(loaded):
+        for issue in [*missing_data_files(loaded), *placeholder_warnings(loaded), *axis_warnings(loaded)]:
             typer.echo(f"warning: {issue}", err=True)
     if failed:
         raise typer.Exit(1)
@@ -329,6 +335,7 @@ def new(
     typer.echo(f"wrote {path}: {entry.robot.name}, {device}; check it with `armcal validate {path}`")
 
 
+UNREACHABLE = 3  # compensate's exit code when a target is unreachable (as run's 3: output written, the job not done)
 CalibratedArg = Annotated[Path, typer.Argument(help="A calibrated spec (a run's calibrated.yaml) or a run's output folder.", metavar="CALIBRATED", show_default=False)]
 OutFileOption = Annotated[Path, typer.Option("--out", help="The file to write.", metavar="FILE")]
 ForceOption = Annotated[bool, typer.Option("--force", help="Replace an existing file.")]
@@ -367,8 +374,12 @@ def compensate(
     targets: Annotated[Path, typer.Option("--targets", help="CSV of targets: name, x, y, z, rx, ry, rz (spec units), optional seeds q1..qn.", metavar="TARGETS")],
     out: OutFileOption,
     force: ForceOption = False,
+    allow_unreachable: Annotated[bool, typer.Option("--allow-unreachable", help="Exit 0 even when a target is unreachable.")] = False,
 ) -> None:
-    """Joint commands that reach Cartesian targets on the calibrated robot, its effects included (docs/export.md)."""
+    """Joint commands that reach Cartesian targets on the calibrated robot, its effects included (docs/export.md).
+
+    Exit 3 when a target is unreachable: its row says why, and every other row is written all the same.
+    """
     from armcal.export import calibration_source
     from armcal.export.compensation import compensate as compensated_commands
     from armcal.dataio.reader import data_text
@@ -386,6 +397,8 @@ def compensate(
         typer.echo(f"  not compensated (they do not follow the joints alone): {', '.join(left_out)}")
     if results is None:
         typer.echo("  no corrected Cartesian targets: they need the nominal model, in a run's results.json (give the run's folder)")
+    if unreached and not allow_unreachable:
+        raise typer.Exit(UNREACHABLE)
 
 
 @app.command("import-urdf", cls=Command)
@@ -410,7 +423,7 @@ def import_urdf(
     typer.echo(f"wrote {out}: {len(chain.joints)} joints from '{base}' to '{tip}', {spec.convention}" + (f", fixed joints merged: {', '.join(chain.merged)}" if chain.merged else ""))
     if spec.reason:
         typer.echo(f"  {spec.convention}, {spec.reason}")
-    typer.echo("  edit its serial, device and procedure: they are placeholders")
+    typer.echo(f"  its serial, target, device and procedure are stand-ins: replace them (armcal validate {out} lists them)")
 
 
 @app.command(name="compare", cls=Command)

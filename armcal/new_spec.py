@@ -14,6 +14,7 @@ from pathlib import Path
 
 from armcal.devices.registry import INSTRUMENTS
 from armcal.robot_library import LibraryRobot
+from armcal.spec.placeholders import marker_lines
 
 PUMA_SIZE = 885.0  # mm, a2 + a3 + d4 of the PUMA 560 (Stone Table 6-2): the reference setups' robot
 
@@ -46,7 +47,9 @@ def new_spec_text(entry: LibraryRobot, device: str, stem: str) -> str:
         *(f"    {line}" for line in targets),
         *sections,
     ]
-    return "\n".join(lines) + "\n"
+    text = "\n".join(lines) + "\n"
+    stand_ins = ["robot.serial", "robot.targets", "device", "procedure", *(["validation"] if validation else [])]
+    return text + "\n".join(marker_lines(text, stand_ins)) + "\n"
 
 
 def _robot_lines(entry: LibraryRobot) -> list[str]:

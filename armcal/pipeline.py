@@ -25,6 +25,7 @@ from armcal.results.calibrated import calibrated_text
 from armcal.results.campaign_block import campaign, certificate_unit
 from armcal.results.history import history_entries
 from armcal.simulate import find_truth, simulated_times
+from armcal.spec.placeholders import placeholder_notes
 from armcal.spec.sections import Simulate
 from armcal.spec import load_spec
 
@@ -89,7 +90,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     warnings = [w for w in (
         simulated_times(calibration_path, raw.extras.get("t"), step, truth),
         simulated_times(validation_path, validation.extras.get("t"), step, None if not simulated[1] else {}) if validation is not None else None,
-    ) if w]
+    ) if w] + placeholder_notes(loaded)
     measured = campaign(loaded, calibration, validation, simulated)
     figures = run_figures(loaded, calibrated, calibration.rows, tasks, found, list(plots), measured)
     results = build_results(loaded, figures, run_id=identifier, warnings=warnings,

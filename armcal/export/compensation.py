@@ -3,7 +3,9 @@ robot, its joint-side effects included, reaches each target.
 
 For a target frame T* (position and orientation, in the chain's world frame) the joints that put the calibrated
 chain there, q*, come from Newton-Raphson inverse kinematics (Stone 5.4, kinematics/ik.py), from the row's seed or,
-without one, the branch nearest the middle of the joint limits. The robot's joints then sit at
+without one, from the solution of the row before (the branch carries over along a path: the wrist does not flip),
+and from the branch nearest the middle of the joint limits for the first row or where that start leads to no solution
+within the limits. The robot's joints then sit at
 q + Delta(q) when commanded q (encoder scale, gear harmonics, compliance, coupling: effects/measurement.py), so the
 command solves q + Delta(q) = q*, by the fixed point q <- q* - Delta(q) (Delta is small and slowly varying:
 each step shrinks the error by about |dDelta/dq|). The corrected Cartesian target is the pose the nominal model
@@ -89,17 +91,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     effects = [from_spec(e) for e in spec.effects]
     left_out = sorted({e.id for e in effects if e.type not in COMPENSATED})
     deviation = _deviation(kinematics, EffectSet(tuple(e for e in effects if e.type in COMPENSATED)))
-    unseeded = np.isnan(seeds).any(axis=1)
-    start = seeds.copy()
-    if unseeded.any():
-        middle = np.tile(kinematics.limits.mean(axis=1), (int(unseeded.sum()), 1))
-        start[unseeded] = _nearest_turn(kinematics, ik.solve_from_starts(kinematics, goals[unseeded]), middle)
-    found = ~np.isnan(start).any(axis=1)
-    reached = np.zeros((len(goals), kinematics.dof))
-    if found.any():
-        solved = ik.solve(kinematics, goals[found], start[found], halvings=ik.SAFE_HALVINGS)
-        reached[found] = _nearest_turn(kinematics, solved.q, start[found])
-        found[np.flatnonzero(found)[~solved.converged]] = False
+    reached, found = _solutions(kinematics, goals, seeds)
     command = reached.copy()
     for _ in range(FIXED_POINT_STEPS):
         previous, command = command, reached - deviation(command)
@@ -133,6 +125,43 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
             row += [f"{v / factor('length', units.length):.12g}" for v in (x, y, z)] + [f"{v / factor('angle', units.angle):.12g}" for v in (rx, ry, rz)]
         writer.writerow(row)
     return out.getvalue(), unreached, left_out
+
+
+def _solutions(kinematics: KinematicModel, goals: np.ndarray, seeds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(q* (N, n), found (N,)): the joints that put the calibrated chain at each goal. A seeded goal starts from its seed
+    (all at once); the others, in file order, from the solution of the target before them (ik.solve_in_order: the
+    branch carries over, the wrist does not flip), and from the branch nearest the middle of the joint limits where
+    there is no such solution or it leads to none within the limits."""
+    count = len(goals)
+    reached, found = np.zeros((count, kinematics.dof)), np.zeros(count, dtype=bool)
+    seeded = ~np.isnan(seeds).any(axis=1)
+    if seeded.any():
+        solved = ik.solve(kinematics, goals[seeded], seeds[seeded], halvings=ik.SAFE_HALVINGS)
+        reached[seeded], found[seeded] = _nearest_turn(kinematics, solved.q, seeds[seeded]), solved.converged
+    i = 0
+    while i < count:
+        if seeded[i]:
+            i += 1
+            continue
+        if i > 0 and found[i - 1]:
+            end = i + int(np.argmax(np.append(seeded[i:], True)))  # the unseeded rows from i on
+            warm = ik.solve_in_order(kinematics, goals[i:end], reached[i - 1])
+            reached[i : i + len(warm.q)], found[i : i + len(warm.q)] = warm.q, True
+            i += len(warm.q)
+            if i == end:
+                continue
+        reached[i], found[i] = _from_the_middle(kinematics, goals[i])
+        i += 1
+    return reached, found
+
+
+def _from_the_middle(kinematics: KinematicModel, goal: np.ndarray) -> tuple[np.ndarray, bool]:
+    """(q*, found) of one goal on the branch nearest the middle of the joint limits (ik.solve_from_starts)."""
+    start = _nearest_turn(kinematics, ik.solve_from_starts(kinematics, goal[None]), kinematics.limits.mean(axis=1)[None])
+    if np.isnan(start).any():
+        return np.zeros(kinematics.dof), False
+    solved = ik.solve(kinematics, goal[None], start, halvings=ik.SAFE_HALVINGS)
+    return _nearest_turn(kinematics, solved.q, start)[0], bool(solved.converged[0])
 
 
 def _nearest_turn(kinematics: KinematicModel, Q: np.ndarray, start: np.ndarray) -> np.ndarray:

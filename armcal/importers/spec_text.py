@@ -1,4 +1,4 @@
-"""A URDF chain as a spec's text, in dh, mdh or six_parameter, with a placeholder device and procedure to edit.
+"""A URDF chain as a spec's text, in dh, mdh or six_parameter, with stand-ins (its placeholders) for the serial, target, device and procedure.
 
 The convention is the simplest the chain's axes allow, unless one is asked for: ``dh`` (Stone (2.9)) when every
 pair of consecutive axes is parallel or has a common normal near them (kinematics/dh_rows.py), else ``mdh`` (Hayati's
@@ -25,6 +25,7 @@ from armcal.importers.urdf import UrdfChain
 from armcal.kinematics.dh_rows import DHChain, dh_chain
 from armcal.kinematics.transforms import inverse, pose_from_matrix
 from armcal.spec.loader import spec_from_bytes
+from armcal.spec.placeholders import marker_lines
 from armcal.units import snapped
 
 CONVENTIONS = ("dh", "mdh", "six_parameter")  # simplest first
@@ -32,6 +33,7 @@ LINK = ("x", "y", "z", "alpha", "beta", "gamma")  # Trans(x, y, z) Rot(z, alpha)
 POSE = ("x", "y", "z", "rz", "ry", "rx")  # Trans(x, y, z) Rot(z, rz) Rot(y, ry) Rot(x, rx): the same product
 LINK_FRAME = ("", "", "z", "rz", "ry", "rx")  # no x, y: a URDF link's origin lies on its joint's axis
 TARGET = "tool_point"
+OFF_AXIS = 50.0  # mm: the stand-in target's distance from the last joint's axis beyond the tool's origin (the tracker guide's reflector)
 quoted = json.dumps  # a JSON string is a YAML string: names and paths are written as data, whatever they hold
 
 
@@ -119,11 +121,12 @@ def _text(chain: UrdfChain, source: str, base: str, tip: str, rows: DHChain | No
         f"    tool: {quoted(tip if tip != chain.joints[-1].link else tip + '_tool')}",  # TIP the last joint's link: the tool is a link of its own
         "    links:",
         *(f"      - {_flow([f'name: {quoted(j.link)}', *_pose(W @ j.frame, LINK_FRAME)])}" for j, W in zip(chain.joints, turned)),
-        "  # PLACEHOLDER, edit: the points or frames your instrument measures (here the tool's origin, on the last link).",
+        f"  # A stand-in: the points or frames your instrument measures (here a point {OFF_AXIS:g} mm farther from joint {n}'s axis",
+        "  # than the tool's origin: a point on the axis does not see the joint turn, docs/devices/tracker.md).",
         "  targets:",
-        f"    {TARGET}: {_flow([f'link: {n}', *_pose(tool, POSE[:3], fixed=True)])}",
-        "# PLACEHOLDER, edit: a spec needs a device and a procedure. These stand-ins (a laser tracker measuring the tool's",
-        "# origin at 100 random poses) say nothing about your measurement: see docs/spec.md and the device guides.",
+        f"    {TARGET}: {_flow([f'link: {n}', *_off_axis(tool, turned[-1])])}",
+        "# Stand-ins: a spec needs a device and a procedure. These (a laser tracker measuring that point at 100 random",
+        "# poses) say nothing about your measurement: see docs/spec.md and the device guides.",
         "device:",
         "  type: tracker",
         f"  targets: [{TARGET}]",
@@ -132,7 +135,19 @@ def _text(chain: UrdfChain, source: str, base: str, tip: str, rows: DHChain | No
         "  type: poses",
         "  count: 100",
     ]
-    return "\n".join(lines) + "\n"
+    text = "\n".join(lines) + "\n"
+    return text + "\n".join(marker_lines(text, ["robot.serial", "robot.targets", "device", "procedure"])) + "\n"
+
+
+def _off_axis(tool: np.ndarray, axis: np.ndarray) -> list[str]:
+    """``x, y, z`` items (mm, held fixed) of a point OFF_AXIS mm farther than the tool's origin from the last joint's
+    axis (the z axis of frame ``axis``, both in the last link's frame), outwards along the radius (along the axis
+    frame's x for an origin on the axis)."""
+    p, o, d = tool[:3, 3], axis[:3, 3], axis[:3, 2]
+    radial = (p - o) - np.dot(p - o, d) * d
+    length = np.linalg.norm(radial)
+    u = radial / length if length > 1e-9 else axis[:3, 0]
+    return [f"{field}: {{value: {_number(v)}, vary: false}}" for field, v in zip("xyz", p + OFF_AXIS * u)]
 
 
 def _explained(convention: str) -> list[str]:

@@ -13,7 +13,7 @@ lead Newton to a flipped frame.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import casadi as ca
 import numpy as np
@@ -22,6 +22,7 @@ from armcal.kinematics.compiler import KinematicModel
 
 DAMPING = 1e-6  # Levenberg damping of the Newton step, well below J^T J's scale near a solution
 SAFE_HALVINGS = 12  # for solve(halvings=...): a step that does not reduce the error is halved up to this many times
+TOL_POSITION, TOL_ROTATION, MAX_ITERATIONS = 1e-6, 1e-9, 40  # solve's defaults: mm, axis columns, Newton steps
 
 
 @dataclass(frozen=True)
@@ -50,17 +51,38 @@ def solve(
     q0: np.ndarray,
     frame: str | None = None,
     p: np.ndarray | None = None,
-    tol_position: float = 1e-6,
-    tol_rotation: float = 1e-9,
-    max_iterations: int = 40,
+    tol_position: float = TOL_POSITION,
+    tol_rotation: float = TOL_ROTATION,
+    max_iterations: int = MAX_ITERATIONS,
     halvings: int = 0,
 ) -> IKResult:
     """Solve N goals (N, 12) poses [p, x-axis, y-axis, z-axis] or (N, 6) [p, z-axis] from q0 (N, n) or (n,)."""
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
-    count = len(goals)
-    Q = np.array(np.broadcast_to(q0, (count, model.dof)), dtype=float)
     function = _error_function(model, frame, goals.shape[1] == 12)
-    p = model.parameter_vector(p)
+    return _newton(function, model.dof, goals, q0, model.parameter_vector(p), tol_position, tol_rotation, max_iterations, halvings)
+
+
+def solve_in_order(model: KinematicModel, goals: np.ndarray, q0: np.ndarray, halvings: int = SAFE_HALVINGS) -> IKResult:
+    """Solve goals one after another, each from the solution of the goal before it, the first from q0 (n,): a warm start
+    that keeps one branch along a path of close goals (the wrist does not flip). Stops before the first goal not solved
+    within the joint limits from its predecessor's solution: the result holds the goals solved before it."""
+    goals = np.atleast_2d(np.asarray(goals, dtype=float))
+    function = _error_function(model, None, goals.shape[1] == 12)
+    p, solved, q = model.parameters.nominal, [], np.asarray(q0, dtype=float)[None]
+    for goal in goals:
+        result = _newton(function, model.dof, goal[None], q, p, TOL_POSITION, TOL_ROTATION, MAX_ITERATIONS, halvings)
+        if not (result.converged[0] and within_limits(model, result.q)[0]):
+            break
+        solved.append(result)
+        q = result.q
+    empty = IKResult(np.zeros((0, model.dof)), np.zeros(0, dtype=bool), np.zeros(0), np.zeros(0))
+    return IKResult(*(np.concatenate([getattr(r, f.name) for r in (empty, *solved)]) for f in fields(IKResult)))
+
+
+def _newton(function, dof: int, goals: np.ndarray, q0: np.ndarray, p: np.ndarray, tol_position: float, tol_rotation: float,
+            max_iterations: int, halvings: int) -> IKResult:
+    """Newton-Raphson (5.4) on the compiled error ``function`` for goals (N, m) from q0 (N, n) or (n,)."""
+    Q = np.array(np.broadcast_to(q0, (len(goals), dof)), dtype=float)
     delta, J = _evaluate(function, Q, p, goals)
     for _ in range(max_iterations):
         rows = np.flatnonzero(~_done(delta, tol_position, tol_rotation) & np.isfinite(delta).all(axis=1))
@@ -68,7 +90,7 @@ def solve(
             break
         JT = J[rows].transpose(0, 2, 1)
         rhs = np.einsum("nij,nj->ni", JT, delta[rows])[..., None]
-        step = np.linalg.solve(JT @ J[rows] + DAMPING * np.eye(model.dof), rhs)[..., 0]  # (5.4)
+        step = np.linalg.solve(JT @ J[rows] + DAMPING * np.eye(dof), rhs)[..., 0]  # (5.4)
         _backtracked_step(function, p, goals, Q, delta, J, rows, step, halvings)
     return IKResult(
         q=Q,

@@ -330,6 +330,18 @@ def _traceability(campaign: dict) -> list[tuple[str, str]]:
     return [(label, given.get(key) or NOT_GIVEN) for label, key in TRACEABILITY_ROWS]
 
 
+def _not_given(spec: dict) -> list[tuple[str, str]]:
+    """A row per placeholder (spec.placeholders): what the spec does not give, as the traceability rows say it."""
+    return [(p["stands_for"][0].upper() + p["stands_for"][1:], f"{NOT_GIVEN}: armcal's stand-in ({p['field']}) is unchanged")
+            for p in spec.get("placeholders", [])]
+
+
+def _serial(robot: dict, spec: dict) -> str:
+    """The robot's serial as the spec gives it, or the stand-in marked as not given."""
+    stand_in = any(p["field"] == "robot.serial" for p in spec.get("placeholders", []))
+    return f"{robot['serial']} ({NOT_GIVEN}: armcal's stand-in)" if stand_in else robot["serial"]
+
+
 def _temperature(campaign: dict) -> str:
     temperature = campaign["temperature"]
     if not temperature:
@@ -423,7 +435,7 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
         "number": report["certificate_number"],
         "simulated": simulated,
         "issued": results["created"][:10],
-        "robot": {"name": robot["name"], "serial": robot["serial"], "convention": robot["convention"], "dof": str(robot["dof"])},
+        "robot": {"name": robot["name"], "serial": _serial(robot, spec), "convention": robot["convention"], "dof": str(robot["dof"])},
         "people": [(label, report[key]) for label, key in (("Customer", "customer"), ("Operator", "operator"), ("Location", "location")) if report[key]],
         "notes": report["notes"] or "",
         "campaign": {
@@ -435,6 +447,7 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
             "origin": origin,
         },
         "traceability": _traceability(campaign),
+        "not_given": _not_given(spec),
         "temperature": _temperature(campaign),
         "acceptance": _acceptance(results.get("acceptance"), shown),
         "history": _history(results, shown),

@@ -13,6 +13,8 @@ from armcal.results.plausibility import plausibility
 from armcal.results.schema import Results
 from armcal.results.provenance import git_info, utc_now
 from armcal.spec import LoadedSpec
+from armcal.spec.placeholders import placeholders
+from armcal.spec.sections import STANDS_FOR
 from armcal.units import from_internal
 
 
@@ -51,7 +53,8 @@ def build_results(loaded: LoadedSpec, figures: dict, **run) -> Results:
             "armcal_version": __version__,
             "created": created,
             "report": report_fields(loaded, created),
-            "spec": {"path": str(loaded.path.resolve()), "sha256": loaded.sha256, "git": git_info(loaded.path)},
+            "spec": {"path": str(loaded.path.resolve()), "sha256": loaded.sha256, "git": git_info(loaded.path),
+                     "placeholders": [{"field": field, "stands_for": STANDS_FOR[field]} for field, _ in placeholders(loaded)]},
             "robot": {"name": spec.robot.name, "serial": spec.robot.serial, "convention": spec.robot.convention, "dof": spec.robot.dof},
             "device": {"type": spec.device.type, "unit": stages.pop("unit"), "noise_sigma": stages.pop("noise_sigma")},
             **stages,

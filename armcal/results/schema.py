@@ -18,10 +18,18 @@ class GitInfo(_Frozen):
     dirty: bool
 
 
+class Placeholder(_Frozen):
+    """A stand-in armcal new or import-urdf wrote, still unchanged in the spec (spec/placeholders.py)."""
+
+    field: str  # the spec's field, e.g. "robot.serial"
+    stands_for: str  # what it takes the place of, e.g. "the robot's serial number"
+
+
 class SpecInfo(_Frozen):
     path: str
     sha256: str
     git: GitInfo | None
+    placeholders: list[Placeholder] = []  # the values the spec does not give: armcal's stand-ins, unchanged
 
 
 class RobotInfo(_Frozen):

@@ -11,7 +11,7 @@ from armcal.spec.device import DEVICE_TYPES, Device
 from armcal.spec.procedure import Procedure
 from armcal.spec.robot import Robot
 from armcal.spec.effect_vocabulary import Effect
-from armcal.spec.sections import Acceptance, Data, Diagnose, Fit, Report, Simulate
+from armcal.spec.sections import STANDS_FOR, Acceptance, Data, Diagnose, Fit, Placeholders, Report, Simulate
 
 
 class Spec(SpecModel):
@@ -29,3 +29,5 @@ class Spec(SpecModel):
     diagnose: Diagnose = Diagnose()
     report: Report = Report()
     acceptance: Acceptance | None = Field(None, description="a tolerance on a held-out figure: the certificate states pass or fail")
+    placeholders: Placeholders = Field({}, description=f"the stand-ins armcal new and import-urdf wrote ({', '.join(STANDS_FOR)}), each with the "
+                                       "fingerprint of its value as written: while the value is unchanged, validate warns and the certificate states it not given")

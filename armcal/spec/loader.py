@@ -170,13 +170,20 @@ def missing_data_files(loaded: LoadedSpec) -> list[Issue]:
     data = loaded.spec.data
     if data is None:
         return []
-    document = parse_yaml(loaded.text, loaded.path)
     message = "no such file beside the spec (paths are relative to its folder); `armcal run` needs it, `armcal simulate` writes simulated data"
-    return [
-        _located(("data", key), f"{name}: {message}", document, loaded.path)
+    return located_issues(loaded, [
+        (("data", key), f"{name}: {message}")
         for key, name in (("calibration", data.calibration), ("validation", data.validation))
         if name and not (loaded.path.parent / name).is_file()
-    ]
+    ])
+
+
+def located_issues(loaded: LoadedSpec, messages: list[tuple[Loc, str]]) -> list[Issue]:
+    """Each (field, message) about a loaded spec as an issue at the field's line and column (warnings of validate)."""
+    if not messages:
+        return []
+    document = parse_yaml(loaded.text, loaded.path)
+    return [_located(loc, message, document, loaded.path) for loc, message in messages]
 
 
 def _sorted(issues: list[Issue]) -> list[Issue]:

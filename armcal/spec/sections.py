@@ -3,13 +3,32 @@ declare: spec/effect_vocabulary.py)."""
 
 from __future__ import annotations
 
-from typing import Literal
+import re
+from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import AfterValidator, Field, model_validator
 
 from armcal.spec.base import Angle, Length, Number, SpecModel
 from armcal.spec.effect_vocabulary import DEG, EFFECT_TYPES, Effect
 from armcal.units import LENGTH_UNITS
+
+STANDS_FOR = {  # the fields `armcal new` and `armcal import-urdf` write stand-ins for (spec/placeholders.py), and what they stand for
+    "robot.serial": "the robot's serial number",
+    "robot.targets": "the points the instrument measures on the robot",
+    "device": "the measuring instrument's placement, targets and noise",
+    "procedure": "the calibration poses as measured",
+    "validation": "the held-out poses as measured",
+}
+
+
+def _fingerprint(value: str) -> str:
+    if not re.fullmatch(r"[0-9a-f]{16}", value):
+        raise ValueError("a placeholder's fingerprint is the 16 hex digits armcal wrote; to keep the value as it is, remove the line")
+    return value
+
+
+Placeholders = dict[Literal[tuple(STANDS_FOR)], Annotated[str, AfterValidator(_fingerprint)]]
+
 
 class Data(SpecModel):
     """Measured data files (CSV, contract columns), relative to the spec file."""

@@ -159,7 +159,8 @@ HARMONIC = "effects:\n  - {type: gear_harmonic, joint: 2, order: 1, sin: 0.05 de
 def test_compensated_commands_recover_the_commands_that_made_the_targets(tmp_path):
     """Targets made here: commands q drawn at random, the robot's joints at q + Delta(q) computed in numpy from the
     effects' formulas (harmonic A sin q2 + B cos q2, scale s q3), the calibrated chain's pose there. compensate,
-    seeded 2 deg away, returns q to 1e-9 rad; a target 10 m away is named unreachable, not dropped."""
+    seeded 2 deg away, returns q to 1e-9 rad; a target 10 m away is named unreachable, not dropped: exit 3 with every
+    row written, and with --allow-unreachable exit 0 and the same file."""
     text = (SPECS / "ur10.yaml").read_text().replace("armcal: 1\n", f"armcal: 1\n{HARMONIC}", 1)  # mm and deg
     spec_path = tmp_path / "calibrated.yaml"
     spec_path.write_text(text)
@@ -180,8 +181,12 @@ def test_compensated_commands_recover_the_commands_that_made_the_targets(tmp_pat
     lines.append("far,10000,0,0,0,0,0" + ",0" * 6)
     (tmp_path / "targets.csv").write_text("\n".join(lines) + "\n")
     result = armcal_cli("compensate", str(spec_path), "--targets", str(tmp_path / "targets.csv"), "--out", str(tmp_path / "commands.csv"))
-    assert result.returncode == 0, result.stderr
+    assert result.returncode == 3, result.stderr  # a target unreachable: exit 3, every row written all the same
     assert "unreachable: far" in result.stdout
+    written = (tmp_path / "commands.csv").read_text()
+    allowed = armcal_cli("compensate", str(spec_path), "--targets", str(tmp_path / "targets.csv"), "--out", str(tmp_path / "commands.csv"),
+                         "--force", "--allow-unreachable")
+    assert allowed.returncode == 0 and (tmp_path / "commands.csv").read_text() == written, allowed.stderr
     with open(tmp_path / "commands.csv") as stream:
         rows = list(csv.DictReader(stream))
     assert [r["name"] for r in rows] == [f"t{i}" for i in range(20)] + ["far"]

@@ -183,3 +183,27 @@ def test_what_import_urdf_writes_validates_or_nothing_is_written(tmp_path):
         done = armcal_cli("import-urdf", path, "--base", "l0", "--tip", f"l{tip}" if name == "sum.urdf" else tip, "--out", spec)
         assert done.returncode == 1 and "Traceback" not in done.stderr and not spec.exists(), done.stderr
         assert done.stderr.startswith(f"error: {path}: {message}"), done.stderr
+
+
+@pytest.mark.parametrize("urdf, base, tip", [("arm", "l0", "l3"), (URDFS / "ros_industrial.urdf", "base_link", "tool0")], ids=["tool-on-axis", "ros-industrial"])
+def test_the_stand_in_target_is_off_the_last_joints_axis(tmp_path, urdf, base, tip):
+    """Turned by 90 deg on the last joint alone, a point at r from its axis moves by sqrt(2) r. The stand-in target lies
+    50 mm farther out than the tool's origin, whose r yourdfpy gives (0 where the tip is the last joint's child link,
+    3 mm for the ROS-Industrial arm's tool0); the spec still validates, with no target on its joint's axis."""
+    if urdf == "arm":
+        urdf = tmp_path / "arm.urdf"
+        urdf.write_text(_arm())
+    out = tmp_path / "imported.yaml"
+    assert armcal_cli("import-urdf", urdf, "--base", base, "--tip", tip, "--out", out).returncode == 0
+    robot = load_spec(out).spec.robot
+    chain = compile_robot(robot)
+    Q = random_configurations(chain, 5, seed=3)
+    turned = Q.copy()
+    turned[:, -1] += np.pi / 2
+    model = urdf_oracle.load(urdf)
+    tool = [urdf_oracle.poses(model, urdf_oracle.joint_values(q, chain.joint_types), [tip], base)[tip][:, :3, 3] for q in (Q, turned)]
+    target = [chain.target_poses("tool_point", q)[:, :3, 3] for q in (Q, turned)]
+    r_tool, r_target = (np.linalg.norm(after - before, axis=1) / np.sqrt(2) for before, after in (tool, target))
+    np.testing.assert_allclose(r_target, r_tool + 50.0, atol=1e-6)
+    done = armcal_cli("validate", out)
+    assert done.returncode == 0 and "axis" not in done.stderr, done.stderr

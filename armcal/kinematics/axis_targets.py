@@ -1,0 +1,46 @@
+"""Targets on the axis of the joint they ride on.
+
+A point on a revolute joint's axis does not move when that joint turns, so a device that reads the point's position
+learns nothing of the joint from it (docs/devices/tracker.md: one reflector on the PUMA's joint-6 axis identifies 30 of
+its 36 robot parameters, off the axis 33). Joint i turns about the z axis of frame F_(i-1) (kinematics/compiler.py);
+a target on link i is fixed in F_i, so its distance from that axis is the same at every configuration.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from armcal.errors import Issue
+from armcal.kinematics.compiler import compile_robot
+from armcal.spec.loader import LoadedSpec, located_issues
+
+ON_AXIS = 1.0  # mm: a target nearer its joint's axis than this moves less than 1 mm per radian of the joint
+
+
+def targets_on_axes(spec) -> list[tuple[str, int, float]]:
+    """(target, joint (1-based), distance in mm) of each robot target within ON_AXIS of the axis of the revolute joint
+    whose link carries it; a frame whose orientation the device reads sees the joint turn, and is not listed."""
+    kinematics = compile_robot(spec.robot)
+    q = np.zeros(kinematics.dof)
+    frames = kinematics.link_frames(q)
+    found = []
+    for name, link in kinematics.target_links.items():
+        if link == 0 or kinematics.joint_types[link - 1] != "revolute":
+            continue
+        if spec.robot.targets[name].is_frame and spec.device.sees_orientation():
+            continue
+        axis = frames[link - 1]
+        offset = kinematics.target_poses(name, q[None])[0, :3, 3] - axis[:3, 3]
+        distance = float(np.linalg.norm(offset - (offset @ axis[:3, 2]) * axis[:3, 2]))
+        if distance < ON_AXIS:
+            found.append((name, link, distance))
+    return found
+
+
+def axis_warnings(loaded: LoadedSpec) -> list[Issue]:
+    """One located warning per target on its joint's axis (``targets_on_axes``)."""
+    return located_issues(loaded, [
+        (("robot", "targets", name), f"{distance:.1f} mm from joint {joint}'s axis: the point does not move when joint {joint} turns, "
+                                     f"so its readings say nothing of that joint; place it off the axis (docs/devices/tracker.md)")
+        for name, joint, distance in targets_on_axes(loaded.spec)
+    ])

@@ -88,11 +88,12 @@ def compile_robot(robot: RobotBase) -> KinematicModel:
     tool = compose(frames[-1], pose_from_symbols(symbol, "tool"))
 
     targets = {}
-    for name, target in robot.targets.items():
+    for number, (name, target) in enumerate(robot.targets.items(), start=1):
         pose = trans(symbol[f"{name}.x"], symbol[f"{name}.y"], symbol[f"{name}.z"])
         if target.is_frame:
             pose = pose_from_symbols(symbol, name)
-        targets[name] = ca.Function(f"fk_{name}", [q, p], [compose(frames[target.link], pose)], ["q", "p"], ["T"])
+        # named by its place, not its name: a spec's names are any text, a CasADi function's an identifier
+        targets[name] = ca.Function(f"fk_target_{number}", [q, p], [compose(frames[target.link], pose)], ["q", "p"], ["T"])
 
     return KinematicModel(
         name=robot.name,

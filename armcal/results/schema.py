@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import re
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 TASK_TITLES = {"grid_task": "Grid-touching task (Stone 7.2.1)", "iso9283": "ISO 9283 positional accuracy"}  # evaluation's tasks
+
+
+JOINT_PARAMETER = re.compile(r"^j(\d+)\.(theta|d|a|alpha|beta|theta0|k)$")  # a default-named joint's parameter: j3.theta, j3.k
 
 
 class _Frozen(BaseModel):
@@ -396,3 +400,19 @@ class Results(_Frozen):
     warnings: list[str] = []  # what the user should know about the inputs (e.g. a simulated-looking t column in real data)
     held_out_check: HeldOutCheck | None = None  # null: no held-out data
     plausibility: Plausibility | None = None  # null: results of an older armcal
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "Results":
+        """What no run writes: a parameter listed twice, a joint's parameter beyond the robot's joints, a correlation
+        matrix not square over its parameters (the file was edited or comes from elsewhere)."""
+        names = [p.name for p in self.parameters]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise ValueError(f"parameters listed twice: {', '.join(twice[:5])}")
+        beyond = [n for n in names if (m := JOINT_PARAMETER.match(n)) and int(m.group(1)) > self.robot.dof]
+        if beyond:
+            raise ValueError(f"parameters of joints the robot ({self.robot.dof} joints) does not have: {', '.join(beyond[:5])}")
+        matrix = self.correlation_matrix
+        if matrix is not None and (len(matrix.matrix) != len(matrix.parameters) or any(len(row) != len(matrix.parameters) for row in matrix.matrix)):
+            raise ValueError("correlation_matrix is not square over its parameters")
+        return self

@@ -131,3 +131,22 @@ def test_two_robots_or_chains_under_one_serial_are_not_compared_and_nonsense_num
         (tmp_path / "b.json").write_text(broken)
         with pytest.raises(UserError, match="not a results.json as armcal writes it"):
             compare(str(tmp_path / "a.json"), str(tmp_path / "b.json"))
+
+
+@pytest.mark.parametrize("edit, phrase", [
+    (lambda r: r["parameters"].append(dict(r["parameters"][-1])), "parameters listed twice"),
+    (lambda r: r["parameters"].insert(0, {**r["parameters"][0], "name": f"j{r['robot']['dof'] + 2}.theta"}), "joints the robot"),
+    (lambda r: r.update(correlation_matrix={"parameters": ["L1.x", "L1.y"], "matrix": [[1.0, 0.0]]}), "not square"),
+], ids=["twice", "joint-beyond-dof", "matrix-not-square"])
+def test_a_results_file_that_contradicts_itself_is_not_read(tmp_path, edit, phrase):
+    """What no run writes (a parameter twice, a default-named joint beyond the robot's, a ragged correlation matrix)
+    is refused by compare and report with the file's name, exit 1, nothing printed of the file beyond the rule."""
+    import json
+
+    golden = json.loads((Path(__file__).resolve().parents[1] / "data" / "golden" / "results.json").read_text())
+    (tmp_path / "a.json").write_text(json.dumps(golden))
+    edit(golden)
+    (tmp_path / "b.json").write_text(json.dumps(golden))
+    done = armcal_cli("compare", tmp_path / "a.json", tmp_path / "b.json")
+    assert done.returncode == 1 and "Traceback" not in done.stderr
+    assert f"{tmp_path / 'b.json'}: not a results.json as armcal writes it" in done.stderr and phrase in done.stderr

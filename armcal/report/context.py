@@ -100,7 +100,7 @@ def _parameter_rows(results: dict, shown: Shown) -> list[dict]:
                 "value": value(to(p["value"])),
                 "difference": value(to(_difference(p))),
                 "expanded": measured(expanded, expanded) if expanded is not None else "",
-                "mark": "" if p["free"] else "held",
+                "mark": "identified" if p["free"] else "held",
             }
         )
     return rows

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from armcal.errors import UserError
+from armcal.errors import UserError, shown_text
 from armcal.fileio import output_folder, write_text_atomic
 from armcal.parallel import run_tasks
 from armcal.pipeline import default_out_dir, run
@@ -48,7 +48,7 @@ def run_job(job: Job) -> dict:
         "spec": str(job.spec),
         "status": results.status,
         "exit_code": outcome.exit_code,
-        "robot": f"{results.robot.name} ({results.robot.serial})",
+        "robot": f"{shown_text(results.robot.name, 'a name')} ({shown_text(results.robot.serial, 'a serial')})",
         "unit": results.device.unit,
         "calibration_rms": [results.residuals.calibration.before.rms, results.residuals.calibration.after.rms],
         "validation_rms": [validation.before.rms, validation.after.rms] if validation else None,

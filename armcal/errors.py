@@ -7,8 +7,13 @@ words their messages.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+
+SHOWN = 40  # characters of a value read from a file that a message may show
+_KEY = re.compile(r"[A-Za-z0-9_.-]{1,40}")
 
 
 def either(names: list[str]) -> str:
@@ -19,6 +24,43 @@ def either(names: list[str]) -> str:
 def with_article(word: str) -> str:
     """'an angle', 'a length': ``word`` with the indefinite article a message needs."""
     return f"{'an' if word[:1].lower() in 'aeiou' else 'a'} {word}"
+
+
+def shown_text(text: str, what: str = "a value") -> str:
+    """A text read from a file (a robot's name or serial, a value) as a message shows it: itself when it is short
+    printable text (at most SHOWN characters, no control, escape or format characters), else described, never
+    quoted: 'a name of 325 characters (not shown)'. Every message that echoes a value read from a file uses this (or
+    shown_key / shown_value), so no file passes escape sequences to the terminal or floods it."""
+    text = str(text)
+    if len(text) <= SHOWN and text.isprintable():
+        return text
+    return _described(text, what, "" if text.isprintable() else " with control characters")
+
+
+def shown_key(key: Any, quoted: bool = False) -> str:
+    """A key read from a file (a spec's unknown key) as a message shows it: itself when it looks like a key (at most
+    SHOWN characters of letters, digits, '_', '.' and '-'), else described: 'a key of 307 characters (not shown)'."""
+    if isinstance(key, int) or _KEY.fullmatch(str(key)):
+        return f"'{key}'" if quoted else str(key)
+    return _described(str(key), "a key")
+
+
+def shown_value(value: Any) -> str:
+    """A value read from a spec as a message shows it: a text quoted ('abc') by shown_text's rule, a number or
+    another value as Python writes it when that is at most SHOWN printable characters, else described."""
+    if isinstance(value, str):
+        shown = shown_text(value)
+        return f"'{value}'" if shown == value else shown
+    kind = {"list": "list", "tuple": "list", "dict": "mapping"}.get(type(value).__name__, "number")
+    try:
+        text = repr(value)
+    except ValueError:  # an integer of thousands of digits
+        return f"a {kind} too long to show"
+    return text if len(text) <= SHOWN and text.isprintable() else f"a {kind} too long to show"
+
+
+def _described(text: str, what: str, note: str = "") -> str:
+    return f"{what} of {len(text)} character{'s' if len(text) != 1 else ''}{note} (not shown)"
 
 
 class UserError(Exception):

@@ -18,6 +18,7 @@ import tempfile
 from pathlib import Path
 
 from armcal.errors import UserError
+from armcal.units import is_number
 
 
 KiB, MiB = 1 << 10, 1 << 20
@@ -160,12 +161,35 @@ def _remove(temporary: str | None) -> None:
         Path(temporary).unlink(missing_ok=True)
 
 
-FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")  # a spreadsheet reads a cell starting so as a formula
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r", "\n")  # a spreadsheet reads a cell starting so as a formula (OWASP)
+
+
+def _formula_like(text: str) -> bool:
+    """A text starting as a formula, also behind leading quotes (so that spreadsheet_text undoes spreadsheet_safe)."""
+    return text.lstrip("'").startswith(FORMULA_STARTS)
 
 
 def spreadsheet_safe(text: str) -> str:
-    """A text cell for a CSV file that a spreadsheet shows as text: one starting as a formula gets a leading quote."""
-    return "'" + text if text.startswith(FORMULA_STARTS) else text
+    """A text cell for a CSV file that a spreadsheet shows as text: one starting as a formula gets a leading quote
+    (as does one already so quoted, so that reading it back, spreadsheet_text, gives the text whole)."""
+    return "'" + text if _formula_like(text) else text
+
+
+def spreadsheet_text(cell: str) -> str:
+    """A text cell as armcal wrote it (spreadsheet_safe) read back: the leading quote of a formula-like text removed."""
+    return cell[1:] if cell.startswith("'") and _formula_like(cell[1:]) else cell
+
+
+def csv_text(rows) -> str:
+    """The text of a CSV file armcal writes (``rows``: the header, then one list of cells a row): every CSV armcal
+    writes comes from here, so each text cell passes spreadsheet_safe (a cell that is a number by units.parse_number,
+    such as -1.5, is a number, not a formula) and a cell holding a comma, quote or line break is quoted (RFC 4180;
+    csv.writer leaves a lone CR unquoted), not a new column or row."""
+    lines = []
+    for row in rows:
+        cells = [text if is_number(text := str(cell)) else spreadsheet_safe(text) for cell in row]
+        lines.append(",".join(f'"{c.replace(chr(34), chr(34) * 2)}"' if any(s in c for s in ',"\r\n') else c for c in cells))
+    return "".join(line + "\n" for line in lines)
 
 
 def current_umask() -> int:

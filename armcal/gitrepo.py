@@ -314,7 +314,8 @@ def _loose(path: Path, budget: _Budget) -> tuple[str, bytes]:
         header, _, content = _inflate(stream, budget, path).partition(b"\0")
     kind, _, size = header.partition(b" ")
     if kind.decode(errors="replace") not in _PACK_TYPES.values() or not size.isdigit() or int(size) != len(content):
-        raise RepositoryLimit(f"{path}: not a loose object (its header declares {header[:40]!r} for {len(content)} bytes)")
+        raise RepositoryLimit(f"{path}: not a loose object (its header of {len(header)} bytes is no '<type> <size>' of "
+                              f"its {len(content)} bytes; the object's bytes are not shown)")
     return kind.decode(), content
 
 

@@ -11,8 +11,6 @@ parameters is refused before the study starts (no design of it could be identifi
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 import math
 import time
@@ -25,7 +23,7 @@ import numpy as np
 
 from armcal import __version__
 from armcal.errors import UserError
-from armcal.fileio import output_folder
+from armcal.fileio import csv_text, output_folder
 from armcal.output_set import output_set, run_id
 from armcal.evaluate.grid import ORIENTATION, grid_indices, grid_placement, index_kind, unobserved_orientation
 from armcal.evaluate.montecarlo import ChunkResult, check_points, chunks, run_chunk
@@ -211,13 +209,11 @@ def _describe(sweep: Sweep | None, spec) -> dict | None:
 
 def _robots_csv(sweep: Sweep | None, design: np.ndarray, calibrated: np.ndarray, units) -> str:
     """One row per robot, point and controller; indices in the spec's units."""
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["variable", "value", "robot", "controller", *INDEX_NAMES])
+    rows = [["variable", "value", "robot", "controller", *INDEX_NAMES]]
     factors = [from_internal(1.0, index_kind(n), units.of(index_kind(n))) for n in INDEX_NAMES]
     for k in range(design.shape[0]):
         for robot in range(design.shape[1]):
             for controller, values in (("design", design), ("calibrated", calibrated)):
                 row = [f"{v * f:.6g}" for v, f in zip(values[k, robot], factors)]
-                writer.writerow([sweep.variable if sweep else "", f"{sweep.shown[k]:g}" if sweep else "", robot, controller, *row])
-    return buffer.getvalue()
+                rows.append([sweep.variable if sweep else "", f"{sweep.shown[k]:g}" if sweep else "", robot, controller, *row])
+    return csv_text(rows)

@@ -24,7 +24,7 @@ from armcal.devices.registry import INSTRUMENTS, instruments_where
 from armcal.errors import UserError, either, with_article
 from armcal.evaluate.montecarlo import robot_seeds
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_label
-from armcal.fileio import refuse_replacing
+from armcal.fileio import csv_text, refuse_replacing
 from armcal.procedures import pose_selection as ps
 from armcal.procedures.poses import keyed_plan
 from armcal.procedures.regions import REGIONS, working_region
@@ -165,11 +165,11 @@ def _csv(spec, existing: tuple[np.ndarray, tuple | None], candidates: ps.Candida
     header = [f"q{i}" for i in range(1, spec.robot.dof + 1)] + list(key_columns)
     Q = [*existing[0], *candidates.q[rows]]
     keys = [*(existing[1] or [None] * len(existing[0])), *(candidates.keys[r][0] for r in rows)]
-    lines = [",".join(header)]
+    rows = [header]
     for q, key in zip(Q, keys):
         fields = [f"{from_internal(v, k, getattr(spec.robot.units, k)):.10g}" for v, k in zip(q, kinds)]
-        lines.append(",".join(fields + [key[i] or "" for i in range(len(key_columns))]))
-    return "\n".join(lines) + "\n"
+        rows.append(fields + [key[i] or "" for i in range(len(key_columns))])
+    return csv_text(rows)
 
 
 def _unit(spec, kind: str) -> str:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armcal.errors import UserError
+from armcal.errors import UserError, shown_text
 from armcal.evaluate.grid import RADIAL
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.parallel import parallel_axes
@@ -40,7 +40,7 @@ def spec_summary(loaded: LoadedSpec) -> str:
     free = sum(row["free"] for row in table.values())
     lines = [
         f"{loaded.path}: valid (sha256 {loaded.sha256[:12]})",
-        f"  robot      {robot.name}, serial {robot.serial}: {robot.dof} joints, convention {robot.convention}",
+        f"  robot      {shown_text(robot.name, 'a name')}, serial {shown_text(robot.serial, 'one')}: {robot.dof} joints, convention {robot.convention}",
         f"  parameters {len(parameters)} ({free} free, {len(parameters) - free} held by the spec); `armcal run` splits the free ones"
         " into identified and not identifiable (from the data), and adds the effects its diagnosis finds:",
         *table_lines(table, "             "),
@@ -164,7 +164,7 @@ def run_summary(outcome) -> str:
     unit = r.device.unit
     cal = r.residuals.calibration
     lines = [
-        f"{r.robot.name} ({r.robot.serial}): {status_words(r.status, r.plausibility)} ({r.solver.reason}, {counted(r.solver.iterations, 'iteration')})",
+        f"{shown_text(r.robot.name, 'a name')} ({shown_text(r.robot.serial, 'a serial')}): {status_words(r.status, r.plausibility)} ({r.solver.reason}, {counted(r.solver.iterations, 'iteration')})",
         *implausible_lines(r),
         f"  identified {r.identifiability.rank} of {r.identifiability.n_parameters} parameters, "
         f"condition number {r.identifiability.condition_number:.3g}",

@@ -16,6 +16,7 @@ import numpy as np
 from armcal.dataio.measurements import Measurements
 from armcal.dataio.reader import data_text
 from armcal.errors import Issue, SpecError
+from armcal.units import parse_number
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
 POSITION = ("measurement_x", "measurement_y", "measurement_z")
@@ -40,9 +41,9 @@ def read_ipa(path: Path, target: str, orientation: bool) -> Measurements:
         for i, row in enumerate(line_rows):
             for j, name in enumerate(names):
                 try:
-                    out[i, j] = float(row[column[name]].replace(",", "."))
+                    out[i, j] = parse_number(row[column[name]].strip(" \t").replace(",", "."))  # its decimal mark is ','
                 except (ValueError, IndexError):
-                    raise SpecError([Issue(path, i + 2, column[name] + 1, name, f"'{row[column[name]] if column[name] < len(row) else ''}' is not a number")]) from None
+                    raise SpecError([Issue(path, i + 2, column[name] + 1, name, "not a number")]) from None
         return out
 
     data = [row for row in rows[1:] if any(field.strip() for field in row)]

@@ -15,10 +15,10 @@ from armcal.dataio.columns import Layout, joint_columns, layout
 from armcal.dataio.measurements import Measurements
 from armcal.devices import device_model
 from armcal.errors import Issue, SpecError
-from armcal.fileio import read_input
+from armcal.fileio import read_input, spreadsheet_text
 from armcal.spec.document import Spec
 from armcal.spec.robot import joint_kind
-from armcal.units import factor
+from armcal.units import factor, is_number, parse_number
 
 MAX_ISSUES = 20
 MAX_SAMPLES = 200_000  # rows of one data file (100,000 ball-bar samples take about 0.7 GiB at the fit)
@@ -76,16 +76,11 @@ def _table(path: Path, text: str | None = None) -> tuple[list[str], list[list[st
     except csv.Error as exc:
         hint = ": an unclosed quote?" if "end of data" in str(exc) else ""
         raise SpecError([Issue(path, start, None, "", f"not a CSV row the reader can take ({exc}{hint})")]) from None
-    return [h.strip() for h in rows[0]], rows[1:]
+    return [h.strip(SPACES) for h in rows[0]], rows[1:]
 
 
-COLUMN_NAME = re.compile(r"[A-Za-z0-9_. -]{1,40}")  # what a header cell may be to be quoted in a message
-CELL = re.compile(r"[A-Za-z0-9_.,:+ -]{1,24}")  # what a data cell may be to be quoted (a number, a name, '1,5')
-
-
-def _quoted(raw: str) -> str:
-    """A cell as a message shows it: quoted when it looks like a value, else only its length (no file content)."""
-    return f"'{raw}'" if CELL.fullmatch(raw) else f"a value of {len(raw)} characters"
+COLUMN_NAME = re.compile(r"[A-Za-z0-9_. -]{1,40}")  # what a header cell may be to be quoted in a message; no cell ever is
+SPACES = " \t"  # what is trimmed around a cell: ASCII spaces and tabs only (a no-break space is no part of a number)
 
 
 def _header(header: list[str], cols: Layout, problems: _Problems) -> Layout:
@@ -108,13 +103,20 @@ def _header(header: list[str], cols: Layout, problems: _Problems) -> Layout:
 
 
 def _number(text: str, kind: str, spec: Spec) -> float:
-    value = float(text)
+    """A cell's number in internal units, by units.parse_number's strict rule; the ValueError says what is wrong
+    without the cell's content."""
+    try:
+        value = parse_number(text)
+    except ValueError:
+        comma = "," in text and is_number(text.replace(",", "."))
+        raise ValueError("not a number (a decimal comma? armcal reads '.')" if comma else
+                         "not a number (armcal reads ASCII digits with an optional sign, '.' and exponent, e.g. -1.5e-3)") from None
     if not math.isfinite(value):
-        raise ValueError(f"{text} is not a finite number")
+        raise ValueError("not a finite number (nan or an infinity)")
     if kind in ("length", "angle"):
         value *= factor(kind, getattr(spec.robot.units, kind))
     elif kind == "direction" and value not in (1.0, -1.0):
-        raise ValueError(f"a direction is +1 or -1, not {text}")
+        raise ValueError("a direction is +1 or -1")
     return value
 
 
@@ -137,18 +139,18 @@ def _parse(path: Path, spec: Spec, device, cols: Layout, header: list[str], rows
             hint = " (decimal commas? armcal reads '.' as the decimal mark)" if len(row) > len(header) and DECIMAL_COMMA.search(",".join(row)) else ""
             problems.add(line, None, "", f"{len(row)} fields, but the header has {len(header)}{hint}")
             continue
-        on_robot = "target" not in index or row[index["target"]].strip() not in device.off_robot_targets
+        on_robot = "target" not in index or spreadsheet_text(row[index["target"]].strip(SPACES)) not in device.off_robot_targets
         for column, kind in cols.known.items():
             if column not in index:
                 continue
-            raw = row[index[column]].strip()
-            if kind == "text":
+            raw = row[index[column]].strip(SPACES)
+            if kind == "text":  # as armcal writes it (fileio.spreadsheet_safe), its leading quote removed
+                raw = spreadsheet_text(row[index[column]] if column in verbatim else raw)
                 raw = links.get(raw, raw) if column == "target" and raw not in names["target"] else raw
-                raw = row[index[column]] if column in verbatim else raw
                 text[column][r] = raw
                 if column in names and raw not in names[column]:
                     allowed = ", ".join(sorted(n for n in names[column] if n)) or "none"
-                    problems.add(line, index[column] + 1, column, f"{_quoted(raw)} is not a known {column} ({allowed})")
+                    problems.add(line, index[column] + 1, column, f"not a known {column} (the spec's: {allowed})")
             elif raw == "":
                 if column in cols.required and not (column.startswith("q") and not on_robot):
                     problems.add(line, index[column] + 1, column, "empty value")
@@ -156,9 +158,7 @@ def _parse(path: Path, spec: Spec, device, cols: Layout, header: list[str], rows
                 try:
                     values[column][r] = _number(raw, kind, spec)
                 except ValueError as exc:
-                    quotable = CELL.fullmatch(raw) is not None
-                    message = str(exc) if quotable and ("finite" in str(exc) or "direction" in str(exc)) else f"{_quoted(raw)} is not a number"
-                    problems.add(line, index[column] + 1, column, message)
+                    problems.add(line, index[column] + 1, column, str(exc))
         if on_robot:
             _check_limits(spec, values, index, r, problems)
     if "sample" in text:
@@ -246,7 +246,7 @@ def _unique_samples(samples: list[str], column: int, problems: _Problems) -> Non
     first: dict[str, int] = {}
     for r, sample in enumerate(samples):
         if sample in first:
-            problems.add(r + 2, column, "sample", f"sample '{sample}' repeats line {first[sample]}")
+            problems.add(r + 2, column, "sample", f"the sample repeats line {first[sample]}'s")
         else:
             first[sample] = r + 2
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +9,7 @@ import numpy as np
 from armcal.dataio.columns import layout
 from armcal.dataio.measurements import Measurements
 from armcal.devices import device_model
-from armcal.fileio import write_text_atomic
+from armcal.fileio import csv_text, write_text_atomic
 from armcal.spec.document import Spec
 from armcal.units import factor
 
@@ -38,8 +37,7 @@ def measurements_csv(measurements: Measurements, spec: Spec) -> str:
     header += [f"q{i}" for i in range(1, n + 1)] + channels + extra
     if "dir" in measurements.extras:
         header += [f"dir{i}" for i in range(1, n + 1)]
-    out = io.StringIO()
-    out.write(",".join(header) + "\n")
+    rows = [header]
     kinds = cols.known
     for r, key in enumerate(measurements.keys):
         sample = measurements.sample[r] if measurements.sample else str(r + 1)
@@ -49,8 +47,8 @@ def measurements_csv(measurements: Measurements, spec: Spec) -> str:
         fields += [_format(measurements.extras[c][r], kinds.get(c, "number"), spec) for c in extra]
         if "dir" in measurements.extras:
             fields += [_format(v, "direction", spec) for v in measurements.extras["dir"][r]]
-        out.write(",".join(fields) + "\n")
-    return out.getvalue()
+        rows.append(fields)
+    return csv_text(rows)
 
 
 def write_measurements(path: Path, measurements: Measurements, spec: Spec) -> None:

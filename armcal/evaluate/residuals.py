@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from armcal.fileio import csv_text
 from armcal.identify.problem import Problem
 from armcal.identify.uncertainty import residual_stats
 from armcal.units import ANGLE_UNITS, from_internal
@@ -103,7 +104,7 @@ def residuals_csv(calibrated, calibration_lines: np.ndarray, validation_lines: n
     rows = residual_rows(calibrated.problem, start, theta, calibration_lines, units, "calibration")
     if calibrated.validation is not None:
         rows += residual_rows(calibrated.validation, start, theta, validation_lines, units, "validation")
-    return "\n".join(",".join(row) for row in [list(RESIDUAL_COLUMNS), *rows]) + "\n"
+    return csv_text([list(RESIDUAL_COLUMNS), *rows])
 
 
 def improvement(pair: dict) -> float:

@@ -14,19 +14,17 @@ reaches at that command: a controller that keeps its nominal model, given it, co
 
 from __future__ import annotations
 
-import csv
-import io
 from pathlib import Path
 
 import casadi as ca
 import numpy as np
 
 from armcal.dataio.columns import Layout, joint_columns
-from armcal.dataio.reader import CELL, MAX_ISSUES, read_table
+from armcal.dataio.reader import MAX_ISSUES, read_table
 from armcal.effects.library import from_spec
 from armcal.effects.measurement import EffectSet, extras_size
-from armcal.errors import Issue, SpecError
-from armcal.fileio import spreadsheet_safe
+from armcal.errors import Issue, SpecError, shown_text
+from armcal.fileio import csv_text
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel, compile_robot
 from armcal.kinematics.transforms import pose_from_matrix, xyz_zyx
@@ -105,17 +103,14 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     corrected = kinematics.tool_poses(command, nominal) if nominal is not None else None
     units = spec.robot.units
     header = ["name", "status", *(j for j, _ in joints), "position_error_mm"] + ([f"corrected_{c}" for c in POSE] if corrected is not None else [])
-    out, unreached = io.StringIO(), []
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(header)
+    rows, unreached = [header], []
     for i, label in enumerate(labels):
         status = "ok" if found[i] and inside[i] and error[i] < REACHED else (
             "unreachable: outside the joint limits" if found[i] and not inside[i] else
             "unreachable: no inverse-kinematics solution" if not found[i] else f"unreachable: {error[i]:.3g} mm off")
         if status != "ok":
-            shown = label if CELL.fullmatch(label) else f"row {i + 1} (a name of {len(label)} characters)"  # no file content echoed
-            unreached.append(f"{shown} ({status[13:]})")
-        row = [spreadsheet_safe(label), status]
+            unreached.append(f"{shown_text(label, f'row {i + 1}: a name')} ({status[13:]})")
+        row = [label, status]
         row += [f"{command[i, j] / factor(joint_kind(kind), units.of(joint_kind(kind))):.12g}" if found[i] else "" for j, (_, kind) in enumerate(joints)]
         row.append(f"{error[i]:.3g}" if found[i] else "")
         if corrected is not None and not found[i]:
@@ -123,8 +118,8 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
         elif corrected is not None:
             x, y, z, rz, ry, rx = pose_from_matrix(corrected[i])
             row += [f"{v / factor('length', units.length):.12g}" for v in (x, y, z)] + [f"{v / factor('angle', units.angle):.12g}" for v in (rx, ry, rz)]
-        writer.writerow(row)
-    return out.getvalue(), unreached, left_out
+        rows.append(row)
+    return csv_text(rows), unreached, left_out
 
 
 def _solutions(kinematics: KinematicModel, goals: np.ndarray, seeds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -18,6 +18,7 @@ dust, read as 0), and the chain may have no more joints than a spec file holds (
 
 from __future__ import annotations
 
+import re
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,14 +27,15 @@ from xml.parsers import expat
 
 import numpy as np
 
-from armcal.errors import UserError
+from armcal.errors import UserError, shown_text
 from armcal.fileio import INPUT_LIMITS, read_input
 from armcal.kinematics.transforms import compose, inverse, rot_x, rot_y, rot_z, trans
-from armcal.units import INTERNAL_UNIT, LARGEST, SMALLEST, factor, to_internal
+from armcal.units import INTERNAL_UNIT, LARGEST, SMALLEST, factor, parse_number, to_internal
 
 MOVING = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
 CONTINUOUS_LIMITS = (-2 * np.pi, 2 * np.pi)  # rad: a continuous joint's limits in the spec, one turn either way
 MAX_JOINTS = INPUT_LIMITS["spec"] // 128  # a spec file holds no more moving joints: each takes over 128 bytes of it
+XML_SPACE = re.compile(r"[ \t\r\n]+")  # what separates numbers in an attribute (XML's white space; no Unicode spaces)
 LISTED = 12  # names a message lists before '... and N more'
 
 
@@ -97,9 +99,10 @@ class _Document:
         text = element.get(attribute, default)
         if text is None:
             raise self.error(element, f"<{element.tag}> needs the attribute {attribute}")
-        shown = f"<{element.tag} {attribute}=\"{text}\">" if len(text) <= 80 else f"<{element.tag} {attribute}> (a value of {len(text)} characters)"
+        value = shown_text(text, "a value")
+        shown = f"<{element.tag} {attribute}=\"{text}\">" if value == text else f"<{element.tag} {attribute}> ({value})"
         try:
-            values = np.array([float(v) for v in text.split()])
+            values = np.array([parse_number(v) for v in XML_SPACE.split(text.strip(" \t\r\n")) if v])
         except ValueError:
             hint = " (a xacro expression? run xacro first)" if "$" in text else ""
             raise self.error(element, f"{shown}: not {count} number{'s' if count > 1 else ''}{hint}") from None

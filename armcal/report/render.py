@@ -27,7 +27,7 @@ from pydantic import ValidationError
 from weasyprint import HTML
 from weasyprint.urls import URLFetcher, URLFetcherResponse
 
-from armcal.errors import UserError
+from armcal.errors import UserError, shown_key
 from armcal.fileio import write_bytes_atomic
 from armcal.output_set import check_set, replace_in_set
 from armcal.report.context import certificate_context
@@ -360,7 +360,7 @@ def read_results(path: Path) -> dict:
     try:
         return Results.model_validate(raw).model_dump(mode="json")
     except ValidationError as exc:
-        problems = [f"{'.'.join(map(str, e['loc'])) or 'the top level'}: {e['msg']}" for e in exc.errors()]
+        problems = [f"{'.'.join(map(shown_key, e['loc'])) or 'the top level'}: {e['msg']}" for e in exc.errors()]
         more = f" (and {len(problems) - 3} more)" if len(problems) > 3 else ""
         raise UserError(f"{path}: not a results.json as armcal writes it: {'; '.join(problems[:3])}{more}") from None
 

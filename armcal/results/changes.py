@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 
 from scipy.stats import norm
 
-from armcal.errors import UserError
+from armcal.errors import UserError, shown_text
 from armcal.evaluate.multiple_testing import ALPHA, holm
 from armcal.units import ANGLE_UNITS, LENGTH_UNITS
 
@@ -27,7 +27,7 @@ from armcal.units import ANGLE_UNITS, LENGTH_UNITS
 def check_same_robot(serial: str, other_serial: str, shown: str, other: str) -> None:
     """A UserError naming ``shown`` when two calibrations are of different serials."""
     if serial != other_serial:
-        raise UserError(f"{shown}: serial {serial} is not {other_serial} of {other}: the calibrations compared must be of one robot")
+        raise UserError(f"{shown}: serial {shown_text(serial, 'one')} is not {shown_text(other_serial, 'one')} of {other}: the calibrations compared must be of one robot")
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armcal.errors import UserError
+from armcal.errors import UserError, shown_text
 from armcal.evaluate.position_changes import POSES, common_box, position_changes, run_model
 from armcal.fileio import INPUT_LIMITS
 from armcal.gitrepo import file_at_revision
@@ -97,13 +97,13 @@ def _from_spec(loaded: LoadedSpec, label: str) -> Calibration:
 def _check_same_model(old: Calibration, new: Calibration) -> None:
     """A UserError when two calibrations of one serial are of different robots or chains (a placeholder serial)."""
     if (new.name, new.chain) != (old.name, old.chain):
-        raise UserError(f"{new.label}: {new.name}, a {new.chain[0]} chain of {new.chain[1]} joints, is not {old.name}, a "
-                        f"{old.chain[0]} chain of {old.chain[1]} joints, of {old.label}: the calibrations compared must be of one "
+        raise UserError(f"{new.label}: {shown_text(new.name, 'a name')}, a {shown_text(new.chain[0])} chain of {new.chain[1]} joints, is not "
+                        f"{shown_text(old.name, 'a name')}, a {shown_text(old.chain[0])} chain of {old.chain[1]} joints, of {old.label}: the calibrations compared must be of one "
                         "robot and one model of it")
 
 
 def _when(c: Calibration) -> str:
-    return f"{c.label}, " + (f"{c.created[:10]} (run {c.run_id})" if c.created else "not dated (no calibrated.yaml header)")
+    return f"{c.label}, " + (f"{shown_text(c.created[:10], 'a date')} (run {shown_text(c.run_id, 'an id')})" if c.created else "not dated (no calibrated.yaml header)")
 
 
 def _number(value: float | None, width: int, digits: str) -> str:
@@ -115,7 +115,7 @@ def _parameter_lines(old: Calibration, new: Calibration) -> tuple[list[str], int
     found = changes(old.parameters, new.parameters, old.basis, new.basis)
     for c in found:
         change = c.new - c.old if c.z is not None else None
-        lines.append(f"{c.name:32} {_number(c.old, 14, '6g')} {_number(c.new, 14, '6g')} {_number(change, 12, '4g')} {c.unit:8} "
+        lines.append(f"{shown_text(c.name, 'a name'):32} {_number(c.old, 14, '6g')} {_number(c.new, 14, '6g')} {_number(change, 12, '4g')} {c.unit:8} "
                      f"{_number(c.z, 7, '2f')}" + ("  significant" if c.significant else f"  not comparable ({c.not_comparable})" if c.not_comparable else ""))
     significant = sum(c.significant for c in found)
     tested = sum(c.z is not None for c in found)
@@ -165,5 +165,5 @@ def compare(old_argument: str, new_argument: str) -> tuple[str, int]:
     _check_same_model(old, new)
     parameters, significant = _parameter_lines(old, new)
     positions, moved = _position_lines(old, new)
-    lines = [f"{new.name} ({new.serial}): {_when(old)} -> {_when(new)}", *parameters, "", *positions]
+    lines = [f"{shown_text(new.name, 'a name')} ({shown_text(new.serial, 'a serial')}): {_when(old)} -> {_when(new)}", *parameters, "", *positions]
     return "\n".join(lines) + "\n", significant + moved

@@ -13,6 +13,7 @@ from typing import Annotated, Any
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo, WithJsonSchema, model_validator
 
 from armcal import units
+from armcal.errors import shown_value
 
 
 class SpecModel(BaseModel):
@@ -59,7 +60,7 @@ Angle = _quantity("angle")
 
 def _finite(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
-        raise ValueError(f"expected a finite number, got {value!r}")
+        raise ValueError(f"expected a finite number, got {shown_value(value)}")
     return value
 
 

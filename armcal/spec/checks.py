@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 from armcal.devices.registry import accepting, instruments_where
-from armcal.errors import either, with_article
+from armcal.errors import either, shown_value, with_article
 from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
 from armcal.spec.robot import SixParameterRobot
@@ -29,12 +29,12 @@ def _robot(spec: Spec) -> Iterator[Problem]:
     seen: dict[str, int] = {}
     for i, name in enumerate(robot.joint_names()):
         if name in seen:
-            yield ("robot", "joints", i, "name"), f"joint name '{name}' is already used by joint {seen[name] + 1}"
+            yield ("robot", "joints", i, "name"), f"joint name {shown_value(name)} is already used by joint {seen[name] + 1}"
         seen[name] = i
     reserved = {"base", "tool", *seen, *(f"L{i}" for i in range(1, robot.dof + 2)), *robot.link_names()}  # URDF export: a link each
     for name, target in robot.targets.items():
         if name in reserved or "." in name:
-            yield ("robot", "targets", name), f"target name '{name}' clashes with a joint, link, base or tool name"
+            yield ("robot", "targets", name), f"target name {shown_value(name)} clashes with a joint, link, base or tool name"
         if target.link > robot.dof:
             yield (
                 ("robot", "targets", name, "link"),
@@ -58,7 +58,7 @@ def _urdf_names(robot) -> Iterator[Problem]:
         return
     names = robot.link_names()
     for name in sorted({name for name in names if names.count(name) > 1}):
-        yield ("robot", "urdf"), f"the URDF link name '{name}' is given twice: the world, each link and the tool are links of their own"
+        yield ("robot", "urdf"), f"the URDF link name {shown_value(name)} is given twice: the world, each link and the tool are links of their own"
 
 
 def _mass_links(masses: list, loc: Loc, dof: int) -> Iterator[Problem]:
@@ -71,7 +71,7 @@ def _target_refs(spec: Spec, names: list[str], loc: Loc, what: str) -> Iterator[
     for i, name in enumerate(names):
         if name not in spec.robot.targets:
             known = ", ".join(spec.robot.targets) or "none defined"
-            yield (*loc, i), f"{what} '{name}' is not a robot target (targets: {known})"
+            yield (*loc, i), f"{what} {shown_value(name)} is not a robot target (targets: {known})"
 
 
 def _device(spec: Spec) -> Iterator[Problem]:
@@ -108,7 +108,7 @@ def _circle_point(spec: Spec, procedure: CirclePoint, loc: Loc) -> Iterator[Prob
     for i, name in enumerate(procedure.targets):
         target = robot.targets.get(name)
         if target is not None and target.link != i + 1:
-            yield (*loc, "targets", i), f"target '{name}' is on link {target.link}; joint {i + 1} needs one on link {i + 1}"
+            yield (*loc, "targets", i), f"target {shown_value(name)} is on link {target.link}; joint {i + 1} needs one on link {i + 1}"
     counts = procedure.points_per_joint
     if isinstance(counts, list) and len(counts) != robot.dof:
         yield (*loc, "points_per_joint"), f"needs one count per joint ({robot.dof}), got {len(counts)}"

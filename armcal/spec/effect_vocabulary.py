@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import ConfigDict, Field, ValidationInfo, model_validator
 
+from armcal.errors import shown_key, shown_value
 from armcal.spec.base import AngleParam, LengthParam, Number, Parameter, ScaleParam, SpecModel, parameter_schema
 from armcal.spec.robot import LinkMass, Offset
 
@@ -68,7 +69,7 @@ def _moment_products(cls, data: Any, info: ValidationInfo, moments: bool) -> Any
         if key not in cls.model_fields and not MOMENT_KEY.match(str(key)):
             close = difflib.get_close_matches(str(key), list(cls.model_fields), n=1, cutoff=0.6)
             hint = f"did you mean '{close[0]}'?" if close else "allowed: " + ", ".join(cls.model_fields) + " and m<c><k> such as mx3"
-            raise ValueError(f"'{key}' is unknown in a {data.get('type')} effect: remove it or check its spelling ({hint})")
+            raise ValueError(f"{shown_key(key, quoted=True)} is unknown in a {shown_value(data.get('type'))} effect: remove it or check its spelling ({hint})")
     kinds = (info.context or {}).get("joint_kinds", [])
     joint = data.get("joint")
     if not moments or not isinstance(joint, int) or not 1 <= joint <= len(kinds):

@@ -18,6 +18,7 @@ from typing import Annotated, Any, ClassVar, Literal, Union
 
 from pydantic import Field, ValidationInfo, WithJsonSchema, WrapValidator, field_validator
 
+from armcal.errors import shown_value
 from armcal.spec.base import LengthParam, SpecModel, convert, quantity_schema
 
 AUTO = "auto"  # a noise sigma estimated from the data
@@ -38,7 +39,7 @@ def _sigma_or_auto(kind: str):
         except ValueError as exc:
             raise ValueError(f"{exc} (or write auto, to estimate it from the data)") from None
         if not sigma > 0:
-            raise ValueError(f"a noise sigma must be above 0 (or auto, to estimate it from the data), got {value!r}")
+            raise ValueError(f"a noise sigma must be above 0 (or auto, to estimate it from the data), got {shown_value(value)}")
         return sigma
 
     schema = {"anyOf": [quantity_schema(kind), {"const": AUTO}], "description": f"{kind} sigma, or auto (estimated from the data)"}
@@ -100,7 +101,7 @@ class DeviceSpec(SpecModel):
             if name not in spec.robot.targets:
                 known = ", ".join(spec.robot.targets) or "none defined"
                 loc = ("device", self.target_field) if one else ("device", self.target_field, i)
-                yield loc, f"{self.target_field if one else self.target_field[:-1]} '{name}' is not a robot target (targets: {known})"
+                yield loc, f"{self.target_field if one else self.target_field[:-1]} {shown_value(name)} is not a robot target (targets: {known})"
 
     target_field: ClassVar[str] = "targets"  # the field that names the robot targets it measures (a list, or one)
 
@@ -126,7 +127,7 @@ class DeviceSpec(SpecModel):
         """The path in the spec of one of its model's parameters, e.g. robot_base.x -> device, robot_base, x."""
         head, _, field = name.rpartition(".")
         if head != "robot_base":
-            raise ValueError(f"{name} is not a parameter of a {self.type}")
+            raise ValueError(f"{shown_value(name)} is not a parameter of a {self.type}")
         return ["device", "robot_base", field]
 
     def out_of_range(self, length) -> tuple[str, str, str]:

@@ -8,6 +8,7 @@ rewritten as plain sentences. All problems are reported at once.
 from __future__ import annotations
 
 import difflib
+import re
 import hashlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,7 +20,7 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from armcal import units
-from armcal.errors import Issue, SpecError
+from armcal.errors import Issue, SpecError, shown_key, shown_value
 from armcal.fileio import read_input
 from armcal.spec.checks import check_spec
 from armcal.spec.document import Spec
@@ -68,6 +69,20 @@ def spec_from_bytes(raw: bytes, path: Path) -> LoadedSpec:
     return LoadedSpec(spec=spec, path=path, text=text, sha256=hashlib.sha256(raw).hexdigest())
 
 
+_QUOTED = re.compile(r"\"[^\"\n]*\"|'[^'\n]*'")
+_PARSER_TOKEN = re.compile(r"[^\w\s]{1,3}|<[a-z ]{1,20}>")  # what the parser names itself: ',' or '<stream end>'
+
+
+def _parser_words(message: str) -> str:
+    """The YAML parser's message without what it quotes from the file (a duplicate key's values, a character): a
+    duplicate key is named when it looks like a key (errors.shown_key), nothing else quoted is shown."""
+    duplicate = re.search(r'found duplicate key "(.*?)" with value', message)
+    if duplicate:
+        return f"{message[:duplicate.start()]}found duplicate key {shown_key(duplicate.group(1), quoted=True)}"
+    return _QUOTED.sub(lambda quoted: quoted.group(0) if _PARSER_TOKEN.fullmatch(quoted.group(0)[1:-1])
+                       else f"({len(quoted.group(0)) - 2} characters, not shown)", message)
+
+
 def parse_yaml(text: str, path: Path) -> _Document:
     """Parse YAML text into plain data with positions; syntax errors become a located issue."""
     yaml = YAML(typ="rt")
@@ -77,9 +92,9 @@ def parse_yaml(text: str, path: Path) -> _Document:
         mark = exc.problem_mark or exc.context_mark
         message = " ".join(filter(None, [exc.context, exc.problem])) or "invalid YAML"
         line, column = (mark.line + 1, mark.column + 1) if mark else (None, None)
-        raise SpecError([Issue(path, line, column, "", f"YAML syntax error: {message}")]) from None
+        raise SpecError([Issue(path, line, column, "", f"YAML syntax error: {_parser_words(message)}")]) from None
     except YAMLError as exc:
-        raise SpecError([Issue(path, None, None, "", f"YAML error: {exc}")]) from None
+        raise SpecError([Issue(path, None, None, "", f"YAML error: {_parser_words(str(exc))}")]) from None
     except RecursionError:
         raise SpecError([Issue(path, None, None, "", "the YAML is nested too deeply (hundreds of levels); a spec needs a few")]) from None
     except ValueError as exc:  # e.g. an integer of more digits than Python converts
@@ -214,7 +229,8 @@ def _data_loc(loc: Loc, data: Any) -> Loc:
 def _field_name(loc: Loc) -> str:
     text = ""
     for part in loc:
-        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+        name = shown_key(part)  # a key the file gave, shown only when it looks like one
+        text += f"[{part}]" if isinstance(part, int) else (f".{name}" if text else name)
     return text
 
 
@@ -252,23 +268,23 @@ def plain_message(error: dict, loc: Loc, data: Any = None) -> str:
     if kind == "missing":
         return "This field is required."
     if kind == "union_tag_invalid":
-        return f"'{ctx.get('tag')}' is not a known {ctx.get('discriminator', '').strip(chr(39))}; use one of {ctx.get('expected_tags')}."
+        return f"{shown_value(ctx.get('tag'))} is not a known {ctx.get('discriminator', '').strip(chr(39))}; use one of {ctx.get('expected_tags')}."
     if kind == "union_tag_not_found":
         return f"The field {ctx.get('discriminator')} is required here."
     if kind == "literal_error":
-        return f"Expected {ctx.get('expected')}, got {value!r}."
+        return f"Expected {ctx.get('expected')}, got {shown_value(value)}."
     if kind in ("float_parsing", "float_type", "finite_number"):
-        return f"Expected a number, got {value!r}."
+        return f"Expected a number, got {shown_value(value)}."
     if kind in ("int_parsing", "int_type", "int_from_float"):
-        return f"Expected a whole number, got {value!r}."
+        return f"Expected a whole number, got {shown_value(value)}."
     if kind in ("bool_parsing", "bool_type"):
-        return f"Expected true or false, got {value!r}."
+        return f"Expected true or false, got {shown_value(value)}."
     if kind == "string_type":
-        return f"Expected text, got {value!r}."
+        return f"Expected text, got {shown_value(value)}."
     if kind in ("list_type", "tuple_type"):
-        return f"Expected a list, got {value!r}."
+        return f"Expected a list, got {shown_value(value)}."
     if kind in ("dict_type", "model_type", "model_attributes_type"):
-        return f"Expected a mapping of keys to values, got {value!r}."
+        return f"Expected a mapping of keys to values, got {shown_value(value)}."
     if kind in ("too_short", "too_long"):
         bound = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
         word = "at least" if kind == "too_short" else "at most"
@@ -276,7 +292,7 @@ def plain_message(error: dict, loc: Loc, data: Any = None) -> str:
     if kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
         words = {"greater_than": "above", "greater_than_equal": "at least", "less_than": "below", "less_than_equal": "at most"}
         limit = next(iter(ctx.values()), "")
-        return f"Must be {words[kind]} {limit}, got {value!r}."
+        return f"Must be {words[kind]} {limit}, got {shown_value(value)}."
     if kind in ("value_error", "assertion_error"):
         message = str(ctx.get("error", error["msg"]))
         return message[:1].upper() + message[1:] + ("" if message.endswith(".") else ".")

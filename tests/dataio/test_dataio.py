@@ -45,8 +45,8 @@ def test_missing_column(tmp_path, spec):
 def test_nan_and_text_and_limits_are_located(tmp_path, spec):
     bad = "3,reflector,10,-45,90,0,20,0,nan,10.25,80.125\n4,reflector,10,abc,90,0,20,0,1,2,3\n5,reflector,10,-45,90,0,20,300,1,2,3\n"
     assert _problems(tmp_path, spec, HEADER + GOOD + bad) == [
-        (4, 9, "x", "nan is not a finite number"),
-        (5, 4, "q2", "'abc' is not a number"),
+        (4, 9, "x", "not a finite number (nan or an infinity)"),
+        (5, 4, "q2", "not a number (armcal reads ASCII digits with an optional sign, '.' and exponent, e.g. -1.5e-3)"),
         (6, 8, "q6", "300 deg lies outside joint 6's limits"),
     ]
 
@@ -54,9 +54,9 @@ def test_nan_and_text_and_limits_are_located(tmp_path, spec):
 def test_unknown_names_duplicate_samples_and_short_rows(tmp_path, spec):
     bad = "2,ghost,10,-45,90,0,20,0,1,2,3\n7,reflector,10,-45\n"
     assert _problems(tmp_path, spec, HEADER + GOOD + bad) == [
-        (4, 2, "target", "'ghost' is not a known target (reflector)"),
+        (4, 2, "target", "not a known target (the spec's: reflector)"),
         (5, None, "", "4 fields, but the header has 11"),
-        (4, 1, "sample", "sample '2' repeats line 3"),
+        (4, 1, "sample", "the sample repeats line 3's"),
     ]
 
 

@@ -37,7 +37,7 @@ BAD = [  # (header, row, expected issue after "targets:")
     ("name,x,y,z,rx,ry,rz,q1,q2,q3,q4,q5,q6", "p,{pose},13,100,153,8,33,23", "2:9: q2: 100 deg lies outside joint 2's limits"),
     ("name,x,y,z,rx,ry,rz", '"p,{pose}', "2: not a CSV row the reader can take (unexpected end of data: an unclosed quote?)"),
     ("name,x,y,z,rx,ry,rz", "p,,{pose_short}", "2:2: x: empty value"),
-    ("name,x,y,z,rx,ry,rz", "p,{pose_short},inf", "2:7: rz: inf is not a finite number"),
+    ("name,x,y,z,rx,ry,rz", "p,{pose_short},inf", "2:7: rz: not a finite number (nan or an infinity)"),
     ("name,x,y,z,rx,ry,rz,root:x:0:0:secret-" + "z" * 40, "p,{pose},1", "1:8: unknown column 8 (a header of 58 characters that is no column name, not shown). "
      "Known columns: x, y, z, rx, ry, rz, name, q1, q2, q3, q4, q5, q6."),
 ]

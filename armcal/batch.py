@@ -18,7 +18,7 @@ from pathlib import Path
 
 from armcal.errors import UserError, shown_text
 from armcal.fileio import output_folder, write_text_atomic
-from armcal.parallel import run_tasks
+from armcal.parallel import check_workers, run_tasks
 from armcal.pipeline import default_out_dir, run
 
 
@@ -96,6 +96,7 @@ def batch(
     progress: Callable[[int, int], None] | None = None,
 ) -> list[dict]:
     """Every spec's outcome, in the order given."""
+    check_workers(workers)
     planned = jobs(specs, out_dir, force, pdf)
     done = [0]
 

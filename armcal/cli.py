@@ -206,7 +206,7 @@ def report(
         typer.echo(f"wrote {path}")
 
 
-WorkersOption = Annotated[int | None, typer.Option("--workers", help="Local worker processes (default: one per core).", metavar="N", min=1)]
+WorkersOption = Annotated[int | None, typer.Option("--workers", help="Local worker processes, 1 to 256 (default: one per core).", metavar="N")]
 SchedulerOption = Annotated[
     str | None, typer.Option("--scheduler", help="Run on a Dask distributed cluster: its scheduler's address, e.g. tcp://10.0.0.5:8786.", metavar="ADDRESS")
 ]

@@ -1,8 +1,14 @@
 """Input files are read bounded, from ordinary files only; output files are written whole or not at all.
 
 An output is only ever a regular file: a device (/dev/null), a pipe or /proc/self/fd/1 in its place is refused, with
---force too (os.replace would put a regular file where the device node was). A failure to write (a read-only file
-system, a full disk, a parent that is a file, a name too long) is one user error naming the file, never a traceback.
+--force too (os.replace would put a regular file where the device node was). Nothing is written under /dev, /proc or
+/sys, by the path as given, with its folders' links resolved, or through any link on its way (``--out /dev/stdout``
+with standard output redirected to a file would otherwise replace the system's link by a file). A link at an output
+is never written through: with --force the link itself is replaced by the file and its target left as it was, unless
+the target is no regular file or lies in those folders (then it is refused, --force or not). A file that is an input
+of the command, by any name (a link, a hard link: the same device and inode), is never replaced. A failure to write
+(a read-only file system, a full disk, a parent that is a file, a name too long) is one user error naming the file,
+never a traceback.
 
 A spec may name regular files anywhere it can read, except under /proc, /sys and
 /dev (pseudo-files that read as endless streams, devices or the process's own
@@ -12,6 +18,7 @@ it is read, so /dev/zero, a FIFO or a runaway file ends with a clear error.
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 import tempfile
@@ -30,11 +37,11 @@ def read_input(path: Path, kind: str) -> bytes:
     """The bytes of an input file of ``kind`` (INPUT_LIMITS): a regular file, not a pseudo-file, within its limit."""
     path = Path(path)
     what = f"{path}: cannot read the {kind} file"
-    resolved = path.resolve()
-    for root in PSEUDO_FILE_SYSTEMS:
-        if resolved == root or root in resolved.parents:
-            raise UserError(f"{what}: it lies under {root}, which holds no input files")
     try:
+        resolved = _resolved(path)
+        for root in PSEUDO_FILE_SYSTEMS:
+            if resolved == root or root in resolved.parents:
+                raise UserError(f"{what}: it lies under {root}, which holds no input files")
         with open(path, "rb", opener=lambda name, flags: os.open(name, flags | os.O_NONBLOCK)) as stream:
             info = os.fstat(stream.fileno())
             if not stat.S_ISREG(info.st_mode):
@@ -57,9 +64,11 @@ def _size(count: int) -> str:
 
 def output_folder(path: Path) -> Path:
     """``path``, checked as a folder to write into: a user error if a file, a dangling link or something
-    unreadable is in the way (a link to nothing is never followed: armcal would create a folder where it points)."""
+    unreadable is in the way (a link to nothing is never followed: armcal would create a folder where it points),
+    or if it lies under /dev, /proc or /sys."""
     path = Path(path)
     try:
+        _refuse_pseudo(path)
         dangling = _dangling_link_on_the_way(path)
         if dangling is not None:
             raise UserError(f"{dangling} is a link to {os.readlink(dangling)}, which does not exist; armcal does not follow it: "
@@ -80,12 +89,17 @@ def _dangling_link_on_the_way(folder: Path) -> Path | None:
 def refuse_replacing(targets, inputs, force: bool) -> None:
     """Nothing existing is replaced without ``force``, an input of the command never is, and no two of the files one
     command writes are one file (``plan --out x.json`` would write its CSV, then its JSON over it)."""
-    sources = {Path(p).resolve() for p in inputs}
+    try:
+        sources = {_resolved(p) for p in inputs}
+    except OSError as exc:
+        raise UserError(f"cannot read {exc.filename}: {exc.strerror}") from None
+    inodes = {key for key in map(_inode, inputs) if key is not None}
     distinct_outputs(targets)
     for target in map(Path, targets):
         try:
-            if target.resolve() in sources:
-                raise UserError(f"{target} is an input of this command; it is never replaced (choose another --out)")
+            if _resolved(target) in sources or _inode(target) in inodes:
+                raise UserError(f"{target} is an input of this command (the file itself, a link to it or a hard link); "
+                                "it is never replaced (choose another --out)")
             if target.is_dir():
                 raise UserError(f"{target} is a folder; give the name of the file to write")
             _refuse_special(target)
@@ -105,7 +119,7 @@ def distinct_outputs(targets) -> None:
     seen: dict = {}
     for target in map(Path, targets):
         try:
-            keys = [("path", str(target.resolve()).casefold())]
+            keys = [("path", str(_resolved(target)).casefold())]
             if target.exists():
                 info = target.stat()
                 keys.append(("inode", info.st_dev, info.st_ino))
@@ -123,12 +137,58 @@ def write_text_atomic(path: Path, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
 
 
+def _inode(path) -> tuple[int, int] | None:
+    """(device, inode) of the file at ``path`` (links followed), None when there is none."""
+    try:
+        info = Path(path).stat()
+    except (OSError, ValueError):
+        return None
+    return info.st_dev, info.st_ino
+
+
 def _refuse_special(path: Path) -> None:
-    """A user error when something other than a regular file (a device, a pipe, a socket) stands at ``path`` (or at
-    the end of the link standing there)."""
+    """A user error when ``path`` lies under /dev, /proc or /sys (_refuse_pseudo), or something other than a
+    regular file (a device, a pipe, a socket) stands at ``path`` or at the end of the link standing there."""
+    _refuse_pseudo(path)
     if path.exists() and not path.is_file() and not path.is_dir():
         raise UserError(f"{path} is not a regular file (a device, a pipe or a socket); armcal writes only regular files, "
                         "--force or not")
+
+
+_MAX_HOPS = 40  # links followed in one path, as Linux does before ELOOP
+
+
+def _refuse_pseudo(path: Path) -> None:
+    """A user error when an output at ``path`` would be written under /dev, /proc or /sys: the path as given, with
+    its folders' links resolved, or any place a chain of links standing at it passes through (a link to
+    /proc/self/fd/1 resolves to whatever file standard output is, so the final resolved path alone says nothing)."""
+    for place in _places(Path(path)):
+        root = next((r for r in PSEUDO_FILE_SYSTEMS if place == r or r in place.parents), None)
+        if root is not None:
+            shown = "" if place == Path(os.path.abspath(path)) else f" (it leads to {place})"
+            raise UserError(f"{path} lies under {root}{shown}; armcal writes no output there (no device, process or "
+                            "kernel file is replaced), --force or not: choose a file elsewhere")
+
+
+def _places(path: Path) -> list[Path]:
+    """``path`` as given (absolute), its folders resolved, and every hop of the chain of links standing there."""
+    places, current = [Path(os.path.abspath(path)), _resolved(path)], Path(os.path.abspath(path))
+    for _ in range(_MAX_HOPS):
+        folder = _resolved(current.parent)
+        places.append(folder / current.name)
+        if not (folder / current.name).is_symlink():
+            break
+        current = Path(os.path.abspath(folder / os.readlink(folder / current.name)))
+        places.append(current)
+    return places
+
+
+def _resolved(path) -> Path:
+    """``Path(path).resolve()``; a loop of links is an OSError (Python 3.11 raises RuntimeError)."""
+    try:
+        return Path(path).resolve()
+    except RuntimeError:
+        raise OSError(errno.ELOOP, os.strerror(errno.ELOOP), str(path)) from None
 
 
 def write_bytes_atomic(path: Path, data: bytes) -> None:

@@ -15,7 +15,10 @@ ValueError), never worked through:
 - a pack index must be a version 2 index whose fan-out table never decreases and whose size is exactly what the
   object count it declares needs; its pack must start with git's header and the same object count, every offset
   inside the pack; all indexes of a repository together are at most _MAX_INDEXES bytes;
-- one read ends after READ_SECONDS (a generous bound: a real read takes milliseconds).
+- objects/info/alternates files are at most _MAX_ALTERNATES_BYTES each, name at most _MAX_ALTERNATES folders
+  together and nest at most _ALTERNATES_DEPTH deep (git's own depth);
+- one read ends after READ_SECONDS (a generous bound: a real read takes milliseconds), the alternates' resolution
+  included.
 """
 
 from __future__ import annotations
@@ -41,6 +44,9 @@ _MAX_DEPTH = 250  # deltas of one object (git's default depth is 50, --aggressiv
 _MAX_INDEXES = 1 << 28  # bytes of a repository's pack indexes together (about ten million objects)
 _MAX_IDS = 1000  # objects listed under one id prefix (more: the prefix is ambiguous anyway)
 READ_SECONDS = 20.0  # wall time of one read
+_MAX_ALTERNATES_BYTES = 4 << 10  # an objects/info/alternates file: a few folder names
+_MAX_ALTERNATES = 16  # alternate object folders of one repository, all depths together
+_ALTERNATES_DEPTH = 5  # alternates of alternates followed, as git does (link_alt_odb_entries)
 _PACK_TYPES = {1: "commit", 2: "tree", 3: "blob", 4: "tag"}
 _OFS_DELTA, _REF_DELTA = 6, 7
 
@@ -223,16 +229,40 @@ def blob_id(content: bytes, id_size: int) -> bytes:
     return hashlib.new("sha1" if id_size == 20 else "sha256", b"blob %d\0" % len(content) + content).digest()
 
 
+def _object_folders(objects: Path, budget: _Budget) -> list[Path]:
+    """The repository's objects folder and those of its alternates: each line of an objects/info/alternates file is
+    a folder (absolute, or relative to the objects folder holding the file; ``#`` starts a comment), whose own
+    alternates are followed to git's depth of _ALTERNATES_DEPTH. Refused: a file above _MAX_ALTERNATES_BYTES, more
+    than _MAX_ALTERNATES folders, deeper nesting (git ignores it; then an object would be missing)."""
+    folders, pending = [objects], [(objects, 0)]
+    while pending:
+        folder, depth = pending.pop(0)
+        listing = folder / "info" / "alternates"
+        if not listing.is_file():
+            continue
+        if depth > _ALTERNATES_DEPTH:
+            raise RepositoryLimit(f"{listing}: alternates nested more than {_ALTERNATES_DEPTH} deep (git's own limit); refused")
+        for line in read_bytes(listing, _MAX_ALTERNATES_BYTES).decode().splitlines():
+            budget.tick(listing)
+            if not line.strip() or line.startswith("#"):
+                continue
+            alternate = (folder / line).resolve()
+            if alternate in folders:
+                continue
+            if len(folders) > _MAX_ALTERNATES:
+                raise RepositoryLimit(f"{listing}: more than {_MAX_ALTERNATES} alternate object folders; refused")
+            folders.append(alternate)
+            pending.append((alternate, depth + 1))
+    return folders
+
+
 class ObjectStore:
     """Loose and packed objects of a repository and of its alternates (objects/info/alternates); one store is one
     read, bounded as the module docstring says."""
 
     def __init__(self, common: Path):
         self.budget = _Budget()
-        objects = common / "objects"
-        alternates = objects / "info" / "alternates"
-        extra = read_bytes(alternates).decode().splitlines() if alternates.is_file() else []
-        self.folders = [objects, *((objects / line).resolve() for line in extra if line and not line.startswith("#"))]
+        self.folders = _object_folders(common / "objects", self.budget)
         config = common / "config"
         sha256 = config.is_file() and re.search(rb"objectformat\s*=\s*sha256", read_bytes(config), re.IGNORECASE)
         self.id_size = 32 if sha256 else 20

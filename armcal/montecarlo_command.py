@@ -31,7 +31,7 @@ from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve, accuracy_la
 from armcal.evaluate.study_statistics import index_statistics, trend
 from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, variant
 from armcal.identify.threads import processors
-from armcal.parallel import run_tasks
+from armcal.parallel import check_workers, run_tasks
 from armcal.planner import DEFAULT_CANDIDATES
 from armcal.procedures.tasks import grid_task
 from armcal.report.study_plots import study_plots
@@ -67,6 +67,7 @@ def montecarlo(
     ``force``: replace an earlier study in ``out_dir`` (never a folder holding anything else)."""
     if runs < 2:
         raise UserError(f"--runs {runs}: a study needs at least 2 robots for a standard deviation")
+    check_workers(workers)
     if len(sweeps) > 1:
         raise UserError("give at most one --sweep: Stone varies one input at a time")
     started = time.perf_counter()

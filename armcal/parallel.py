@@ -18,6 +18,15 @@ from armcal.errors import UserError
 from armcal.identify.threads import limit, processors
 
 Progress = Callable[[Any], None]  # called with each result as it arrives
+MAX_PROCESSES = 256  # local worker processes (--workers): each is a Python with armcal and CasADi, ~150 MB
+
+
+def check_workers(workers: int | None) -> None:
+    """A user error, before any work, when ``workers`` (None: one per processor) is no number of local worker
+    processes from 1 to MAX_PROCESSES."""
+    if workers is not None and not 1 <= workers <= MAX_PROCESSES:
+        raise UserError(f"--workers {workers}: give a number of local worker processes from 1 to {MAX_PROCESSES} "
+                        "(default: one per processor; a Dask cluster, --scheduler, for more)")
 
 
 def run_tasks(
@@ -25,6 +34,7 @@ def run_tasks(
 ) -> list:
     """[function(task) for task in tasks], run in parallel; ``scheduler`` is a Dask scheduler's address."""
     report = progress or (lambda result: None)
+    check_workers(workers)
     if scheduler is not None:
         check_scheduler_address(scheduler)
         return _on_dask(function, tasks, scheduler, report)

@@ -5,6 +5,7 @@ a file, a name too long and a read-only folder end in one message naming the fil
 import os
 import stat
 import subprocess
+import sys
 
 import pytest
 from conftest import ROOT, armcal_cli
@@ -156,3 +157,50 @@ def test_the_writer_keeps_modes_under_any_umask_and_never_follows_a_dangling_lin
         with pytest.raises(UserError, match="are one file"):
             distinct_outputs(pair)
     distinct_outputs([tmp_path / "a.csv", tmp_path / "a.json"])
+
+
+# -- hostile report 30, items 3 and 4: no output under /dev, /proc, /sys; an input by any name is never replaced -----
+
+
+def _run_with_stdout_in(path, *args):
+    """`python -m armcal ARGS` with standard output redirected to the regular file ``path`` (as `> path` does), so
+    that /proc/self/fd/1 leads to a regular file."""
+    with open(path, "w") as stdout:
+        return subprocess.run([sys.executable, "-m", "armcal", *map(str, args)], stdout=stdout, stderr=subprocess.PIPE,
+                              text=True, cwd=ROOT, timeout=300)
+
+
+def test_no_output_is_written_under_dev_proc_or_sys_through_any_link(tmp_path):
+    """A chain of links ending in /proc/self/fd/1 while standard output is a file, a linked folder leading into
+    /proc or /sys: refused with --force, exit 1, one message, the links and the file behind them as they were."""
+    captured = tmp_path / "captured.txt"
+    chain = tmp_path / "spec.yaml"
+    (tmp_path / "hop.yaml").symlink_to("/proc/self/fd/1")
+    chain.symlink_to(tmp_path / "hop.yaml")
+    (tmp_path / "proc_self").symlink_to("/proc/self")
+    (tmp_path / "sys_kernel").symlink_to("/sys/kernel")
+    cases = {
+        chain: ("/proc", "new", "--robot", "ur5e", "--device", "tracker", "--out", chain, "--force"),
+        tmp_path / "proc_self" / "x.urdf": ("/proc", "export", ROOT / "specs" / "puma560_dh.yaml", "--format", "urdf",
+                                            "--out", tmp_path / "proc_self" / "x.urdf", "--force"),
+        tmp_path / "sys_kernel" / "spec.yaml": ("/sys", *_writers(tmp_path / "sys_kernel" / "spec.yaml")["import-urdf"]),
+    }
+    for out, (root, *args) in cases.items():
+        done = _run_with_stdout_in(captured, *args)
+        assert done.returncode == 1 and "Traceback" not in done.stderr and done.stderr.count("\n") == 1, done.stderr
+        assert f"{out} lies under {root}" in done.stderr and "--force or not" in done.stderr, done.stderr
+        assert captured.read_text() == "", "nothing is written to the file standard output leads to"
+    assert os.readlink(chain) == str(tmp_path / "hop.yaml") and os.readlink(tmp_path / "hop.yaml") == "/proc/self/fd/1"
+    assert os.readlink("/dev/stdout") == "/proc/self/fd/1"
+
+
+def test_a_hard_link_to_an_input_is_refused_like_the_input(tmp_path):
+    """import-urdf --out a hard link of its URDF, --force: the same device and inode is the input itself."""
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_bytes(URDF.read_bytes())
+    out = tmp_path / "spec.yaml"
+    os.link(urdf, out)
+    done = armcal_cli("import-urdf", urdf, "--base", "base_link", "--tip", "tool0", "--out", out, "--force")
+    assert done.returncode == 1 and "Traceback" not in done.stderr and done.stderr.count("\n") == 1, done.stderr
+    assert f"{out} is an input of this command" in done.stderr and "hard link" in done.stderr
+    assert out.read_bytes() == URDF.read_bytes() and os.stat(out).st_ino == os.stat(urdf).st_ino and os.stat(urdf).st_nlink == 2

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from pydantic import BaseModel, ValidationError
 
 from armcal import units
 from armcal.errors import UserError
@@ -39,6 +40,12 @@ VARIABLES = {
 }
 
 
+MAX_VALUES = 20  # values of one sweep: a trend needs a few, and each is a whole study of --runs robots
+SWEPT_FIELDS = {"noise_factor": "simulate.noise_factor", "sigma_e": "simulate.sigma_e",
+                "points_per_joint": "procedure.points_per_joint", "target_radius": "robot.targets"}
+INTERNAL_UNITS = {"units": {"length": "mm", "angle": "rad", "scale": "1"}}  # a variant's values are internal
+
+
 @dataclass(frozen=True)
 class Sweep:
     variable: str
@@ -55,6 +62,9 @@ def parse_sweep(text: str, spec: Spec) -> Sweep:
     items = [item.strip() for item in raw.split(",") if item.strip()]
     if len(items) < 2:
         raise UserError(f"--sweep {text!r}: give at least two values, e.g. {name}=1,2,5")
+    if len(items) > MAX_VALUES:
+        raise UserError(f"--sweep {name}: {len(items)} values, at most {MAX_VALUES} (a trend needs a few; each value is a "
+                        "whole study of --runs robots)")
     kind = VARIABLES[name].kind
     unit = spec.robot.units.of(kind)
     values, shown = [], []
@@ -74,16 +84,32 @@ def parse_sweep(text: str, spec: Spec) -> Sweep:
 
 
 def variant(spec: Spec, variable: str, value: float) -> Spec:
-    """The spec with ``variable`` set to ``value`` (internal units)."""
+    """The spec with ``variable`` set to ``value`` (internal units), validated as a spec is (its bounds, e.g.
+    points_per_joint at most 200000, and its cross-checks): a user error names the value and the problem."""
+    try:
+        return _variant(spec, variable, value)
+    except ValidationError as exc:
+        shown = f"{value:.12g}" if VARIABLES[variable].kind in ("count", "scale") else "one of its values"
+        raise UserError(f"--sweep {variable}: {shown} makes no valid spec ({SWEPT_FIELDS[variable]}: "
+                        f"{exc.errors()[0]['msg']})") from None
+
+
+def _variant(spec: Spec, variable: str, value: float) -> Spec:
     simulate = spec.simulate or Simulate()
     if variable in ("noise_factor", "sigma_e"):
-        return spec.model_copy(update={"simulate": simulate.model_copy(update={variable: value})})
+        return _validated(spec, simulate=_validated(simulate, **{variable: value}))
     procedure = spec.procedure
     if not isinstance(procedure, CirclePoint):
         raise UserError(f"the {variable} sweep varies Stone's circle-point procedure; this spec's procedure is {procedure.type}")
     if variable == "points_per_joint":
-        return spec.model_copy(update={"procedure": procedure.model_copy(update={"points_per_joint": int(value)})})
-    return spec.model_copy(update={"robot": _targets_at_radius(spec, procedure, value)})
+        return _validated(spec, procedure=_validated(procedure, points_per_joint=int(value)))
+    return _validated(spec, robot=_targets_at_radius(spec, procedure, value))
+
+
+def _validated(model: BaseModel, **update) -> BaseModel:
+    """``model`` with ``update`` applied and validated again (model_copy would skip every check); values in
+    internal units, the unchanged parts as they are."""
+    return type(model).model_validate({**dict(model), **update}, context=INTERNAL_UNITS)
 
 
 def _targets_at_radius(spec: Spec, procedure: CirclePoint, radius: float):
@@ -111,9 +137,9 @@ def _targets_at_radius(spec: Spec, procedure: CirclePoint, radius: float):
         moved = point[:3] + (radius / np.linalg.norm(radial) - 1.0) * radial
         local = np.linalg.solve(link, np.r_[moved, 1.0])[:3]
         coordinates = {c: _with_value(getattr(target, c), v) for c, v in zip("xyz", local)}
-        targets[name] = target.model_copy(update=coordinates)
-    return robot.model_copy(update={"targets": targets})
+        targets[name] = _validated(target, **coordinates)
+    return _validated(robot, targets=targets)
 
 
 def _with_value(parameter: Parameter, value: float) -> Parameter:
-    return parameter.model_copy(update={"value": float(value)})
+    return _validated(parameter, value=float(value))

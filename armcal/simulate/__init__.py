@@ -43,14 +43,26 @@ def write_simulation(loaded: LoadedSpec, out_dir: Path, force: bool = False) -> 
             write_measurements(path, measurements, loaded.spec)
             written.append(path)
     data = {path.name: hashlib.sha256(path.read_bytes()).hexdigest() for path in written}
-    truth = {"spec_sha256": loaded.sha256, "data_sha256": data, "dropped_poses": campaign.dropped, **campaign.truth}
+    truth = json.loads(json.dumps({"spec_sha256": loaded.sha256, "data_sha256": data, "dropped_poses": campaign.dropped, **campaign.truth}))
     truth_path = Path(out_dir) / "truth.json"
-    write_text_atomic(truth_path, json.dumps(truth, indent=1, sort_keys=True) + "\n")
+    write_text_atomic(truth_path, json.dumps({**truth, RECORD_DIGEST: record_digest(truth)}, indent=1, sort_keys=True) + "\n")
     return campaign, [*written, truth_path]
 
 
+RECORD_DIGEST = "record_sha256"  # truth.json's digest of its own content: record_digest of the rest
+
+
+def record_digest(record: dict) -> str:
+    """SHA-256 (hex) of a truth record without its RECORD_DIGEST field, as canonical JSON: keys sorted, no spaces,
+    ASCII, numbers as Python writes them (so the file's layout does not count, any changed value does)."""
+    rest = {key: value for key, value in record.items() if key != RECORD_DIGEST}
+    text = json.dumps(rest, sort_keys=True, separators=(",", ":"), ensure_ascii=True, allow_nan=False)
+    return hashlib.sha256(text.encode("ascii")).hexdigest()
+
+
 def find_truth(data_file: Path) -> dict | None:
-    """The truth.json that ``armcal simulate`` wrote beside a data file, if these very data came from it."""
+    """The truth.json that ``armcal simulate`` wrote beside a data file, if these very data came from it: the
+    record's own digest must match its content (an edited value is refused), its data hashes the file's."""
     record_path = Path(data_file).parent / "truth.json"
     if not record_path.exists():
         return None
@@ -58,13 +70,22 @@ def find_truth(data_file: Path) -> dict | None:
         record = json.loads(read_input(record_path, "truth"))
     except (ValueError, RecursionError):
         record = None
-    problem = "it is not a JSON mapping with data_sha256" if not isinstance(record, dict) or not isinstance(record.get("data_sha256"), dict) else record_problem(record)
+    problem = "it is not a JSON mapping with data_sha256" if not isinstance(record, dict) or not isinstance(record.get("data_sha256"), dict) else _digest_problem(record) or record_problem(record)
     if problem:
         raise UserError(f"{record_path}: not a truth record written by armcal simulate ({problem}); remove it or simulate the data again")
     digest = hashlib.sha256(read_input(data_file, "data")).hexdigest()
     return record if record["data_sha256"].get(Path(data_file).name) == digest else None
 
 
+def _digest_problem(record: dict) -> str | None:
+    """What is wrong with a record's own digest (None when it matches its content)."""
+    if RECORD_DIGEST not in record:
+        return f"it carries no {RECORD_DIGEST}: written before armcal checked its records, or the digest was removed"
+    try:
+        matches = record[RECORD_DIGEST] == record_digest(record)
+    except (TypeError, ValueError, RecursionError):  # e.g. NaN, which armcal never writes
+        matches = False
+    return None if matches else f"its content does not match its {RECORD_DIGEST}: a value was changed after armcal simulate wrote it"
 
 
 def simulated_times(data_file: Path, t: np.ndarray | None, time_step: float, truth: dict | None) -> str | None:

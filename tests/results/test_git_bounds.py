@@ -187,3 +187,43 @@ def test_compare_names_the_revision_and_exits_1(tmp_path):
     result = armcal_cli("compare", f"{spec}@HEAD", spec, timeout=60)
     assert result.returncode == 1 and f"{spec}@HEAD" in result.stderr and "deeper than" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+# -- hostile report 30 item 6: objects/info/alternates bounded in size, count, depth and time ----------------------
+
+
+def _alternates(folder, *lines: str) -> None:
+    (folder / "info").mkdir(parents=True, exist_ok=True)
+    (folder / "info" / "alternates").write_text("".join(f"{line}\n" for line in lines))
+
+
+def test_alternates_are_followed_to_gits_depth_and_bounded(tmp_path, monkeypatch):
+    """Within git's rules (the pack in an alternate of an alternate, a cycle, comments) the spec is read; beyond them
+    (a 5 KiB file, 17 folders, nesting 6 deep, the read's time) refused at once, naming the alternates file."""
+    git_dir, spec = _repo(tmp_path, _blob_id(SPEC))
+    objects = git_dir / "objects"
+    second, third = tmp_path / "second" / "objects", tmp_path / "third" / "objects"
+    (third / "pack").mkdir(parents=True)
+    _pack(git_dir, _chain(SPEC, 2), _blob_id(SPEC))
+    for name in ("pack-0.pack", "pack-0.idx"):
+        (objects / "pack" / name).rename(third / "pack" / name)
+    _alternates(objects, "# shared objects", str(second))
+    _alternates(second, "../../third/objects", str(objects))  # relative to second's objects folder; a cycle back
+    assert file_at_revision(spec, "HEAD") == SPEC
+
+    _alternates(objects, "# " + "x" * 5000)
+    _refused(spec, r"alternates is larger than 4096 bytes", seconds=1.0)
+
+    _alternates(objects, *(str(tmp_path / f"o{k}") for k in range(17)))
+    _refused(spec, r"alternates: more than 16 alternate object folders; refused", seconds=1.0)
+
+    chain = [tmp_path / f"nest{k}" for k in range(7)]
+    _alternates(objects, str(chain[0]))
+    for folder, following in zip(chain, chain[1:]):
+        _alternates(folder, str(following))
+    message = _refused(spec, r"alternates nested more than 5 deep \(git's own limit\); refused", seconds=1.0)
+    assert str(chain[5] / "info" / "alternates") in message
+
+    _alternates(objects, str(second))
+    monkeypatch.setattr(gitrepo, "READ_SECONDS", -1.0)
+    _refused(spec, r"alternates: reading the repository took more than -1 s", seconds=1.0)

@@ -159,3 +159,62 @@ def test_simulating_hidden_effects_reproduces_the_shipped_example(tmp_path):
     record = json.loads((tmp_path / "truth.json").read_text())
     robot = TrueRobot.from_record(compile_robot(loaded.spec.robot), record)
     assert [(e.type, e.joint, e.order, e.values) for e in robot.effects.effects] == [("gear_harmonic", 2, 1, record["hidden_effects"][0]["values"])]
+
+
+# -- hostile report 30 item 11: truth.json carries a digest of its own content, checked where it is read ------------
+
+
+def test_an_edited_or_undigested_truth_record_is_refused_and_its_layout_does_not_count(tmp_path):
+    """Edits that keep the data hashes (a parameter of the true robot, a hidden effect's value, the record's digest
+    removed as in an older file, the digest recomputed by another rule): 'not a truth record', exit 1, no traceback,
+    the file unchanged. Re-indenting and reordering keys is no edit. The shipped examples carry a matching digest."""
+    import hashlib
+    import shutil
+    import subprocess
+    import sys
+
+    from armcal.errors import UserError
+    from armcal.simulate import find_truth
+
+    for example in sorted((ROOT / "examples").glob("*/truth.json")):
+        assert find_truth(example.parent / "calibration.csv") is not None, example
+    folder = ROOT / "examples" / "hidden_harmonic"
+    for name in ("spec.yaml", "calibration.csv", "validation.csv", "truth.json"):
+        shutil.copy(folder / name, tmp_path / name)
+    path, shipped = tmp_path / "truth.json", json.loads((folder / "truth.json").read_text())
+
+    path.write_text(json.dumps(dict(reversed(list(shipped.items()))), indent=4))
+    assert find_truth(tmp_path / "calibration.csv")["parameters"] == shipped["parameters"]
+
+    first = sorted(shipped["parameters"])[0]
+    edits = {
+        "a true parameter": (lambda r: r["parameters"].update({first: r["parameters"][first] + 1e-6}), "does not match"),
+        "a hidden effect's value": (lambda r: r["hidden_effects"][0].update({"values": [2 * v for v in r["hidden_effects"][0]["values"]]}), "does not match"),
+        "the digest removed": (lambda r: r.pop("record_sha256"), "carries no record_sha256"),
+        "the digest of the indented file": (lambda r: r.update({"record_sha256": hashlib.sha256((folder / "truth.json").read_bytes()).hexdigest()}), "does not match"),
+    }
+    for what, (edit, phrase) in edits.items():
+        record = json.loads(json.dumps(shipped))
+        edit(record)
+        text = json.dumps(record, indent=1, sort_keys=True) + "\n"
+        path.write_text(text)
+        with pytest.raises(UserError, match=f"{path}: not a truth record written by armcal simulate .*{phrase}"):
+            find_truth(tmp_path / "calibration.csv")
+        assert path.read_text() == text, what
+
+    done = subprocess.run([sys.executable, "-m", "armcal", "run", tmp_path / "spec.yaml", "--out", tmp_path / "out", "--no-pdf"],
+                          capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert done.returncode == 1 and "Traceback" not in done.stderr and "not a truth record" in done.stderr, done.stderr
+    assert not (tmp_path / "out" / "results.json").exists()
+
+
+def test_simulate_writes_a_truth_record_whose_digest_is_sha256_of_its_canonical_json(tmp_path):
+    """Oracle: hashlib over json.dumps(sort_keys, compact separators) of the record without its digest field."""
+    import hashlib
+
+    write_simulation(load_spec(ROOT / "examples" / "hidden_harmonic" / "spec.yaml"), tmp_path)
+    record = json.loads((tmp_path / "truth.json").read_text())
+    rest = {k: v for k, v in record.items() if k != "record_sha256"}
+    canonical = json.dumps(rest, sort_keys=True, separators=(",", ":"), ensure_ascii=True).encode()
+    assert record["record_sha256"] == hashlib.sha256(canonical).hexdigest()
+    assert record["data_sha256"] == json.loads((ROOT / "examples" / "hidden_harmonic" / "truth.json").read_text())["data_sha256"]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import csv
+import io
 import json
 import os
 from collections.abc import Callable
@@ -67,6 +69,13 @@ def main(
 
 
 SpecArg = Annotated[Path, typer.Argument(help="Calibration spec (YAML).", metavar="SPEC", show_default=False)]
+
+
+def file_name(value: str) -> Path:
+    """An output file's name as typed: a name ending in a separator names a folder, and no file is written there."""
+    if value.endswith((os.sep, "/")):
+        raise typer.BadParameter(f"'{value}' ends in '/', which names a folder: give the name of the file to write")
+    return Path(value)
 
 
 def user_errors(command: Callable) -> Callable:
@@ -282,7 +291,7 @@ def batch(
 def import_ipa(
     spec: SpecArg,
     source: Annotated[Path, typer.Argument(help="An ipa-robot-accuracy measurements file (';', decimal commas).", metavar="SERIES", show_default=False)],
-    out: Annotated[Path, typer.Option("--out", help="The contract CSV to write.", metavar="FILE")],
+    out: Annotated[Path, typer.Option("--out", help="The contract CSV to write.", metavar="FILE", parser=file_name)],
     target: Annotated[str, typer.Option(help="The robot target the tracker measured.", metavar="NAME")] = "tmac",
     force: Annotated[bool, typer.Option("--force", help="Replace an existing data file.")] = False,
 ) -> None:
@@ -310,7 +319,7 @@ def import_ipa(
 def new(
     robot: Annotated[str | None, typer.Option("--robot", help="A library robot (see --list), e.g. ur5e.", metavar="NAME")] = None,
     device: Annotated[str | None, typer.Option("--device", help="The instrument's device.type (docs/devices/README.md lists them; an unknown one is answered with the list).", metavar="TYPE")] = None,
-    out: Annotated[Path | None, typer.Option("--out", help="The spec to write (default: <robot>-<device>.yaml here).", metavar="SPEC")] = None,
+    out: Annotated[Path | None, typer.Option("--out", help="The spec to write (default: <robot>-<device>.yaml here).", metavar="SPEC", parser=file_name)] = None,
     force: Annotated[bool, typer.Option("--force", help="Replace an existing spec.")] = False,
     list_robots: Annotated[bool, typer.Option("--list", help="List the library's robots and exit.")] = False,
 ) -> None:
@@ -337,7 +346,7 @@ def new(
 
 UNREACHABLE = 3  # compensate's exit code when a target is unreachable (as run's 3: output written, the job not done)
 CalibratedArg = Annotated[Path, typer.Argument(help="A calibrated spec (a run's calibrated.yaml) or a run's output folder.", metavar="CALIBRATED", show_default=False)]
-OutFileOption = Annotated[Path, typer.Option("--out", help="The file to write.", metavar="FILE")]
+OutFileOption = Annotated[Path, typer.Option("--out", help="The file to write.", metavar="FILE", parser=file_name)]
 ForceOption = Annotated[bool, typer.Option("--force", help="Replace an existing file.")]
 
 
@@ -383,6 +392,7 @@ def compensate(
     from armcal.export import calibration_source
     from armcal.export.compensation import compensate as compensated_commands
     from armcal.dataio.reader import data_text
+    from armcal.report.numbers import counted
     from armcal.fileio import refuse_replacing, write_text_atomic
 
     refuse_replacing([out], [*_calibration_inputs(source), targets], force)
@@ -390,7 +400,8 @@ def compensate(
     text = data_text(targets)
     commands, unreached, left_out = compensated_commands(loaded, results, text, str(targets))
     write_text_atomic(out, commands)
-    typer.echo(f"wrote {out}: {commands.count(chr(10)) - 1 - len(unreached)} targets reached" + (f", {len(unreached)} not" if unreached else ""))
+    reached = sum(1 for _ in csv.reader(io.StringIO(commands))) - 1 - len(unreached)  # records, not lines: a quoted name may hold a line break
+    typer.echo(f"wrote {out}: {counted(reached, 'target')} reached" + (f", {len(unreached)} not" if unreached else ""))
     for line in unreached:
         typer.echo(f"  unreachable: {line}")
     if left_out:
@@ -407,7 +418,7 @@ def import_urdf(
     source: Annotated[Path, typer.Argument(help="A URDF file (plain XML: expand a xacro file first).", metavar="URDF", show_default=False)],
     base: Annotated[str, typer.Option("--base", help="The link the chain starts from: the spec's world frame.", metavar="LINK")],
     tip: Annotated[str, typer.Option("--tip", help="The link the chain ends at: the spec's tool frame.", metavar="LINK")],
-    out: Annotated[Path, typer.Option("--out", help="The spec (YAML) to write.", metavar="SPEC")],
+    out: Annotated[Path, typer.Option("--out", help="The spec (YAML) to write.", metavar="SPEC", parser=file_name)],
     force: Annotated[bool, typer.Option("--force", help="Replace an existing spec.")] = False,
     convention: Annotated[str | None, typer.Option("--convention", help="dh, mdh or six_parameter (default: the simplest the chain's axes allow).", metavar="CONVENTION")] = None,
 ) -> None:
@@ -444,7 +455,7 @@ def compare_calibrations(
 def plan(
     spec: SpecArg,
     poses: Annotated[int, typer.Option("--poses", help="Poses to plan.", metavar="N")],
-    out: Annotated[Path, typer.Option("--out", help="The pose list to write (CSV: q1..qN in the spec's units); POSES.json beside it.", metavar="POSES")],
+    out: Annotated[Path, typer.Option("--out", help="The pose list to write (CSV: q1..qN in the spec's units); POSES.json beside it.", metavar="POSES", parser=file_name)],
     candidates: Annotated[int, typer.Option("--candidates", help="Random candidate poses to choose from.", metavar="M")] = 2000,
     extend: Annotated[Path | None, typer.Option("--extend", help="A pose list to keep and add N poses to.", metavar="CSV")] = None,
     runs: Annotated[int, typer.Option("--runs", help="Simulated robots that predict the held-out accuracy (0: none).", metavar="R")] = 50,

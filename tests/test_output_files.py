@@ -204,3 +204,16 @@ def test_a_hard_link_to_an_input_is_refused_like_the_input(tmp_path):
     assert done.returncode == 1 and "Traceback" not in done.stderr and done.stderr.count("\n") == 1, done.stderr
     assert f"{out} is an input of this command" in done.stderr and "hard link" in done.stderr
     assert out.read_bytes() == URDF.read_bytes() and os.stat(out).st_ino == os.stat(urdf).st_ino and os.stat(urdf).st_nlink == 2
+
+
+@pytest.mark.parametrize("command", [
+    ("export", "examples/goswami_ballbar/spec.yaml", "--format", "json"),
+    ("new", "puma560", "--device", "tracker"),
+    ("import-urdf", "tests/data/urdf/missing.urdf", "--base", "a", "--tip", "b"),
+], ids=["export", "new", "import-urdf"])
+def test_an_output_name_ending_in_a_slash_names_a_folder_and_nothing_is_written(tmp_path, command):
+    """`--out name/` is a folder's name: refused before anything runs (pathlib would drop the slash and write a file)."""
+    out = tmp_path / "nodir"
+    done = subprocess.run([sys.executable, "-m", "armcal", *command, "--out", f"{out}/"], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    assert "ends in '/', which names a folder" in done.stderr and not out.exists()

@@ -11,6 +11,8 @@ TASK_TITLES = {"grid_task": "Grid-touching task (Stone 7.2.1)", "iso9283": "ISO 
 
 
 JOINT_PARAMETER = re.compile(r"^j(\d+)\.(theta|d|a|alpha|beta|theta0|k)$")  # a default-named joint's parameter: j3.theta, j3.k
+SIX_PARAMETER_LINK = re.compile(r"^L(\d+)\.(\w+)$")  # a six_parameter link's parameter: L1..L(n+1), Goswami (3)
+LINK_FIELDS = {"x", "y", "z", "alpha", "beta", "gamma"}
 
 
 class _Frozen(BaseModel):
@@ -403,15 +405,18 @@ class Results(_Frozen):
 
     @model_validator(mode="after")
     def _consistent(self) -> "Results":
-        """What no run writes: a parameter listed twice, a joint's parameter beyond the robot's joints, a correlation
+        """What no run writes: a parameter listed twice, a joint's or six_parameter link's parameter the robot does not have, a correlation
         matrix not square over its parameters (the file was edited or comes from elsewhere)."""
         names = [p.name for p in self.parameters]
         twice = sorted({n for n in names if names.count(n) > 1})
         if twice:
             raise ValueError(f"parameters listed twice: {', '.join(twice[:5])}")
-        beyond = [n for n in names if (m := JOINT_PARAMETER.match(n)) and int(m.group(1)) > self.robot.dof]
+        beyond = [n for n in names if (m := JOINT_PARAMETER.match(n)) and not 1 <= int(m.group(1)) <= self.robot.dof]
+        if self.robot.convention == "six_parameter":  # its links are named L1..L(n+1), no target may take such a name
+            beyond += [n for n in names if (m := SIX_PARAMETER_LINK.match(n))
+                       and (not 1 <= int(m.group(1)) <= self.robot.dof + 1 or m.group(2) not in LINK_FIELDS)]
         if beyond:
-            raise ValueError(f"parameters of joints the robot ({self.robot.dof} joints) does not have: {', '.join(beyond[:5])}")
+            raise ValueError(f"parameters of joints or links the robot ({self.robot.dof} joints) does not have: {', '.join(beyond[:5])}")
         matrix = self.correlation_matrix
         if matrix is not None and (len(matrix.matrix) != len(matrix.parameters) or any(len(row) != len(matrix.parameters) for row in matrix.matrix)):
             raise ValueError("correlation_matrix is not square over its parameters")

@@ -96,3 +96,13 @@ def test_targets_not_utf8_are_refused_at_their_line(tmp_path, puma):
     refused = armcal_cli("compensate", SPECS / "puma560_dh.yaml", "--targets", targets, "--out", out)
     assert refused.returncode == 1 and "Traceback" not in refused.stderr and not out.exists()
     assert f"{targets}:3:" in refused.stderr and "not UTF-8" in refused.stderr and "d\ufffdp" not in refused.stderr
+
+
+def test_the_count_of_targets_reached_counts_records_not_lines(tmp_path, puma):
+    """A quoted name holding line breaks is one target: 'wrote ...: 1 target reached' (it had counted 4)."""
+    _, pose = puma
+    targets = tmp_path / "targets.csv"
+    targets.write_text('name,x,y,z,rx,ry,rz\n"a\nb\nc\nd",' + ",".join(pose) + "\n")
+    done = armcal_cli("compensate", SPECS / "puma560_dh.yaml", "--targets", targets, "--out", tmp_path / "commands.csv")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[0] == f"wrote {tmp_path / 'commands.csv'}: 1 target reached"

@@ -135,11 +135,13 @@ def test_two_robots_or_chains_under_one_serial_are_not_compared_and_nonsense_num
 
 @pytest.mark.parametrize("edit, phrase", [
     (lambda r: r["parameters"].append(dict(r["parameters"][-1])), "parameters listed twice"),
-    (lambda r: r["parameters"].insert(0, {**r["parameters"][0], "name": f"j{r['robot']['dof'] + 2}.theta"}), "joints the robot"),
+    (lambda r: r["parameters"].insert(0, {**r["parameters"][0], "name": f"j{r['robot']['dof'] + 2}.theta"}), "joints or links the robot"),
     (lambda r: r.update(correlation_matrix={"parameters": ["L1.x", "L1.y"], "matrix": [[1.0, 0.0]]}), "not square"),
-], ids=["twice", "joint-beyond-dof", "matrix-not-square"])
+    (lambda r: r["parameters"].insert(0, {**r["parameters"][0], "name": "j0.theta"}), "joints or links the robot"),
+    (lambda r: (r["robot"].update(convention="six_parameter"), r["parameters"].insert(0, {**r["parameters"][0], "name": "L9.x"})), "L9.x"),
+], ids=["twice", "joint-beyond-dof", "matrix-not-square", "joint-0", "six-parameter-link-beyond"])
 def test_a_results_file_that_contradicts_itself_is_not_read(tmp_path, edit, phrase):
-    """What no run writes (a parameter twice, a default-named joint beyond the robot's, a ragged correlation matrix)
+    """What no run writes (a parameter twice, a default-named joint or a six_parameter link the robot lacks, a ragged correlation matrix)
     is refused by compare and report with the file's name, exit 1, nothing printed of the file beyond the rule."""
     import json
 

@@ -431,7 +431,8 @@ def import_urdf(
     chain = read_urdf(source, base, tip)
     spec = imported_spec(chain, source.name, base, tip, convention)
     write_text_atomic(out, spec.text)
-    typer.echo(f"wrote {out}: {len(chain.joints)} joints from '{base}' to '{tip}', {spec.convention}" + (f", fixed joints merged: {', '.join(chain.merged)}" if chain.merged else ""))
+    typer.echo(f"wrote {out}: {len(chain.joints)} joints from '{base}' to '{tip}', {spec.convention}" + (f", fixed joints merged: {', '.join(chain.merged)}" if chain.merged else "")
+               + "".join(f", mimic joints {', '.join(mimics)} replaced by {master}" for master, mimics in chain.mimicked))
     if spec.reason:
         typer.echo(f"  {spec.convention}, {spec.reason}")
     typer.echo(f"  its serial, target, device and procedure are stand-ins: replace them (armcal validate {out} lists them)")

@@ -90,6 +90,8 @@ def _text(chain: UrdfChain, source: str, base: str, tip: str, rows: DHChain | No
     lines += _explained(convention)
     if chain.merged:
         lines.append(f"# Fixed joints merged into the links: {', '.join(quoted(j) for j in chain.merged)}.")
+    for master, mimics in chain.mimicked:
+        lines.append(f"# Mimic joints {', '.join(quoted(j) for j in mimics)} replaced by the joint they mimic, {quoted(master)}: it moves them all.")
     if continuous:
         lines.append(f"# Continuous joints, given limits of one turn either way (-360, 360 deg): {', '.join(quoted(j) for j in continuous)}.")
     lines += [

@@ -1,4 +1,5 @@
-"""A serial chain read from a URDF file: the joints from one link to another, fixed joints merged.
+"""A serial chain read from a URDF file: the joints from one link to another, fixed joints merged, mimic joints
+replaced by the joint they mimic (mimic.py).
 
 URDF (ROS's robot description) writes each joint as child = parent * origin(xyz, rpy) * motion, the origin's
 rotation R = Rz(yaw) Ry(pitch) Rx(roll), the motion Rot(axis, q) (revolute, continuous) or Trans(q axis)
@@ -7,7 +8,8 @@ Rot(axis, q) = S Rot(z, q) S^-1 (likewise the translation), so S ends the fixed 
 S^-1 starts the next one; fixed joints multiply into the transform they sit in (their inverse where the chain
 climbs from BASE to a link above TIP, as from ROS-Industrial's base to base_link). The chain is then
 T = links[0] J_1(q_1) links[1] ... J_n(q_n) links[n], J_i = Rot(z, q_i) or Trans(0, 0, q_i), in mm. Each moving
-joint keeps the name of the link it moves and that link's frame S^-1 in the frame the joint turns.
+joint keeps the name of the link it moves and that link's frame S^-1 in the frame the joint turns (a group of
+mimic joints: the name, type and limits of their master, and the link the last of them moves).
 
 The file is only parsed, never run: no xacro, no DOCTYPE (so no entities to expand), meshes, inertias and
 everything else off the chain ignored. What is read is checked whole: the joints must make one tree from a single
@@ -29,10 +31,10 @@ import numpy as np
 
 from armcal.errors import UserError, shown_text
 from armcal.fileio import INPUT_LIMITS, read_input
+from armcal.importers.mimic import MOVING, Slide, mimics_on
 from armcal.kinematics.transforms import compose, inverse, rot_x, rot_y, rot_z, trans
 from armcal.units import INTERNAL_UNIT, LARGEST, SMALLEST, factor, parse_number, to_internal
 
-MOVING = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
 CONTINUOUS_LIMITS = (-2 * np.pi, 2 * np.pi)  # rad: a continuous joint's limits in the spec, one turn either way
 MAX_JOINTS = INPUT_LIMITS["spec"] // 128  # a spec file holds no more moving joints: each takes over 128 bytes of it
 XML_SPACE = re.compile(r"[ \t\r\n]+")  # what separates numbers in an attribute (XML's white space; no Unicode spaces)
@@ -55,6 +57,7 @@ class UrdfChain:
     joints: tuple[UrdfJoint, ...]
     links: tuple[np.ndarray, ...]  # n + 1 fixed transforms (mm): T = links[0] J_1 links[1] ... J_n links[n]
     merged: tuple[str, ...]  # the fixed joints multiplied into the links
+    mimicked: tuple[tuple[str, tuple[str, ...]], ...] = ()  # (master, its mimic joints replaced by it), mimic.py
     path: Path | None = None  # the URDF file read
 
     def axes(self) -> list[np.ndarray]:
@@ -129,37 +132,53 @@ def read_urdf(path: Path, base: str, tip: str) -> UrdfChain:
     if xacro is not None:
         raise document.error(xacro, f"<{xacro.tag}>: this is a xacro file; armcal runs nothing, expand it first (xacro FILE > robot.urdf)")
     chain = _joints_between(document, base, tip)
-    moving = sum(element.get("type") != "fixed" for element, _ in chain)
-    if moving > MAX_JOINTS:
-        raise UserError(f"{path}: {moving} joints from '{base}' to '{tip}': a spec file holds at most {MAX_JOINTS} "
+    moving = [element for element, _ in chain if element.get("type") != "fixed"]
+    if len(moving) > MAX_JOINTS:
+        raise UserError(f"{path}: {len(moving)} joints from '{base}' to '{tip}': a spec file holds at most {MAX_JOINTS} "
                         f"(it may have {INPUT_LIMITS['spec'] >> 10} KiB)")
-    joints, links, merged = [], [], []
-    pending = np.eye(4)
-    for element, upwards in chain:
+    for element in moving:
         name, kind = element.get("name", "?"), element.get("type")
-        origin = _origin(document, element.find("origin"))
-        if kind == "fixed":
-            pending = pending @ (inverse(origin) if upwards else origin)
-            merged.append(name)
-            continue
         if kind is None:
             raise document.error(element, f"joint '{name}' has no type (revolute, continuous, prismatic or fixed)")
         if kind not in MOVING:
             raise document.error(element, f"joint '{name}' is {kind}; armcal imports revolute, continuous, prismatic and fixed joints")
-        if element.find("mimic") is not None:
-            raise document.error(element, f"joint '{name}' mimics another joint; armcal's joints are independent (mimic joints are not imported)")
-        axis_element = element.find("axis")
-        axis = document.numbers(axis_element, "xyz", 3, default="1 0 0") if axis_element is not None else np.array([1.0, 0.0, 0.0])  # URDF's default
-        if np.linalg.norm(axis) < 1e-9:
-            raise document.error(axis_element, f"joint '{name}': the axis is zero")
-        S = _z_onto(axis / np.linalg.norm(axis))
-        links.append(pending @ origin @ S)
-        pending = S.T
-        joints.append(UrdfJoint(name, MOVING[kind], _limits(document, element, kind), kind == "continuous", element.find("child").get("link"), S.T))
+    mimics = mimics_on(document, moving)
+    joints, links, merged, mimicked = [], [], [], []
+    pending = np.eye(4)
+    for element, upwards in chain:
+        origin = _origin(document, element.find("origin"))
+        if element.get("type") == "fixed":
+            pending = pending @ (inverse(origin) if upwards else origin)
+            merged.append(element.get("name", "?"))
+            continue
+        axis, mimic, turn = _axis(document, element), mimics.get(element), 0.0
+        if mimic is None:
+            before, after = pending @ origin, np.eye(4)
+        elif element.get("type") == "prismatic":  # the group's translations gathered at its start, its origins in pending
+            if element is mimic.group[0]:
+                start, pending, slide = pending, np.eye(4), Slide()
+            pending = pending @ origin
+            slide.add(pending, axis, mimic)
+            if element is not mimic.group[-1]:
+                continue
+            offset, axis = slide.joint(document, mimic)
+            before, after = start @ offset, pending
+        else:  # Rot(axis, q + offset) = S Rot(z, offset) Rot(z, q) S^-1
+            before, after, turn = pending @ origin, np.eye(4), mimic.offset
+        S = _z_onto(axis)
+        across = trans(*(S.T @ after)[:2, 3], 0.0)  # a slide's frame moves freely across its axis: onto its link's origin (robot.urdf has no x, y)
+        links.append(before @ S @ across @ rot_z(turn))
+        pending = inverse(across) @ S.T @ after
+        source = element if mimic is None else mimic.master
+        if mimic is not None:
+            mimicked.append((source.get("name"), tuple(j.get("name") for j in mimic.group)))
+        kind = source.get("type")
+        joints.append(UrdfJoint(source.get("name", "?"), MOVING[kind], _limits(document, source, kind), kind == "continuous",
+                                element.find("child").get("link"), pending))
     if not joints:
         raise UserError(f"{path}: no revolute, continuous or prismatic joint between '{base}' and '{tip}'")
     links.append(pending)
-    return UrdfChain(root.get("name", "robot"), tuple(joints), tuple(links), tuple(merged), Path(path))
+    return UrdfChain(root.get("name", "robot"), tuple(joints), tuple(links), tuple(merged), tuple(mimicked), Path(path))
 
 
 def _joints_between(document: _Document, base: str, tip: str) -> list[tuple[ET.Element, bool]]:
@@ -259,6 +278,15 @@ def _origin(document: _Document, element: ET.Element | None) -> np.ndarray:
     x, y, z = document.numbers(element, "xyz", 3, "0 0 0", "length", "m")
     roll, pitch, yaw = document.numbers(element, "rpy", 3, "0 0 0", "angle", "rad")
     return compose(trans(x, y, z), rot_z(yaw), rot_y(pitch), rot_x(roll))
+
+
+def _axis(document: _Document, joint: ET.Element) -> np.ndarray:
+    """The unit vector of a joint's <axis> (URDF's default 1 0 0 when absent)."""
+    element = joint.find("axis")
+    axis = document.numbers(element, "xyz", 3, default="1 0 0") if element is not None else np.array([1.0, 0.0, 0.0])
+    if np.linalg.norm(axis) < 1e-9:
+        raise document.error(element, f"joint '{joint.get('name', '?')}': the axis is zero")
+    return axis / np.linalg.norm(axis)
 
 
 def _z_onto(axis: np.ndarray) -> np.ndarray:

@@ -69,7 +69,8 @@ BAD_URDFS = [  # (URDF text, --base, --tip, expected message after "FILE:")
     (ARM, "tool0", "camera_link", " no chain from 'tool0' to 'camera_link': 'tool0' is neither a link above 'camera_link' (link_3, link_2, link_1, base_link) nor one fixed to such a link"),
     ("<robot name='r'><link name='a'/><link name='b'/></robot>", "a", "b", " 2 links are no joint's child (a, b); a URDF is one tree from a single root link"),
     (ARM.replace('<axis xyz="0 1 0"/>', '<axis xyz="0 1 0"/><mimic joint="joint_a2"/>'), "base_link", "tool0",
-     "39: joint 'joint_a3' mimics another joint; armcal's joints are independent (mimic joints are not imported)"),
+     "39: joint 'joint_a3' mimics 'joint_a2', which is on the chain too (line 32): armcal's joints move each by a value of its own "
+     "(two joints moved by one value are not imported)"),
     (ARM.replace('name="joint_a4" type="revolute"', 'name="joint_a4" type="floating"'), "base_link", "tool0",
      "46: joint 'joint_a4' is floating; armcal imports revolute, continuous, prismatic and fixed joints"),
     (ARM.replace('name="joint_a4" type="revolute"', 'name="joint_a4" type="planar"'), "base_link", "tool0",

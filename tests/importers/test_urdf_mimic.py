@@ -79,11 +79,11 @@ TURNING = _robot(  # a revolute mimic with an offset, of a continuous master tha
     _joint("wheel_tool", "fixed", "wheel", "tool", xyz="0.2 0 0"),
 )
 
-CASES = {  # name: (URDF text, --base, --tip, the imported joints' names)
-    "slides": (_slides(0.3, 0.7, False), "base", "tool", ["pan", "lift", "wrist"]),
-    "slides-negative": (_slides(1.5, -0.5, False), "base", "tool", ["pan", "lift", "wrist"]),
-    "slides-flipped": (_slides(0.25, 0.75, True), "base", "tool", ["pan", "lift", "wrist"]),
-    "turning": (TURNING, "base", "tool", ["slide", "spin"]),
+CASES = {  # name: (URDF text, --base, --tip, the imported joints' names, the links they move)
+    "slides": (_slides(0.3, 0.7, False), "base", "tool", ["pan", "lift", "wrist"], ["arm", "slider", "hand"]),
+    "slides-negative": (_slides(1.5, -0.5, False), "base", "tool", ["pan", "lift", "wrist"], ["arm", "slider", "hand"]),
+    "slides-flipped": (_slides(0.25, 0.75, True), "base", "tool", ["pan", "lift", "wrist"], ["arm", "slider", "hand"]),
+    "turning": (TURNING, "base", "tool", ["slide", "spin"], ["carriage", "wheel"]),
 }
 
 
@@ -96,9 +96,10 @@ def _oracle_values(model, names: list[str], types, Q: np.ndarray) -> np.ndarray:
     return values
 
 
-def _check(tmp_path, urdf, base, tip, names, convention, count) -> tuple[float, float]:
-    """Import in ``convention``; the names, types and limits of the masters; (position, rotation) differences of the
-    tool from yourdfpy's at ``count`` random configurations."""
+def _check(tmp_path, urdf, base, tip, names, convention, count, links=()) -> tuple[float, float]:
+    """Import in ``convention``; the names, types and limits of the masters; the largest (position, rotation)
+    differences from yourdfpy's at ``count`` random configurations: of the tool, and of ``links`` in the URDF that
+    `armcal export --format urdf` writes of the spec (where the source has them, so meshes attach)."""
     out = tmp_path / f"{convention}.yaml"
     done = armcal_cli("import-urdf", urdf, "--base", base, "--tip", tip, "--out", out, "--convention", convention)
     assert done.returncode == 0, done.stderr
@@ -112,8 +113,13 @@ def _check(tmp_path, urdf, base, tip, names, convention, count) -> tuple[float, 
         expected = (-2 * np.pi, 2 * np.pi) if joint.type == "continuous" else np.array([joint.limit.lower, joint.limit.upper]) * (1000.0 if kind == "prismatic" else 1.0)
         np.testing.assert_allclose([low, high], expected, rtol=1e-11)
     Q = random_configurations(robot, count, seed=29)
-    found = urdf_oracle.poses(model, _oracle_values(model, names, robot.joint_types, Q), [tip], base)[tip]
-    return urdf_oracle.differences(robot.tool_poses(Q), found)
+    found = urdf_oracle.poses(model, _oracle_values(model, names, robot.joint_types, Q), [tip, *links], base)
+    differences = [urdf_oracle.differences(robot.tool_poses(Q), found[tip])]
+    if links:
+        assert armcal_cli("export", out, "--format", "urdf", "--out", tmp_path / "exported.urdf").returncode == 0
+        moved = urdf_oracle.poses(urdf_oracle.load(tmp_path / "exported.urdf"), urdf_oracle.joint_values(Q, robot.joint_types), list(links), base)
+        differences += [urdf_oracle.differences(moved[link], found[link]) for link in links]
+    return max(d[0] for d in differences), max(d[1] for d in differences)
 
 
 @pytest.mark.parametrize("convention", CONVENTIONS)
@@ -121,11 +127,12 @@ def _check(tmp_path, urdf, base, tip, names, convention, count) -> tuple[float, 
 def test_mimic_joints_move_as_yourdfpy_moves_them(tmp_path, case, convention):
     """Two prismatic mimics of an off-chain master (multipliers 0.3 and 0.7, 1.5 and -0.5, or 0.25 and -0.75 along
     the opposite axis; offsets; rpy between them) and a revolute mimic with offset 0.4 rad of a continuous master:
-    1e-6 mm and 1e-9 at 500 random configurations, in dh, mdh and six_parameter."""
-    text, base, tip, names = CASES[case]
+    the tool, and each moved link of the exported URDF, 1e-6 mm and 1e-9 at 500 random configurations, in dh, mdh
+    and six_parameter."""
+    text, base, tip, names, links = CASES[case]
     urdf = tmp_path / "mimics.urdf"
     urdf.write_text(text)
-    position, rotation = _check(tmp_path, urdf, base, tip, names, convention, 500)
+    position, rotation = _check(tmp_path, urdf, base, tip, names, convention, 500, links)
     assert position < 1e-6 and rotation < 1e-9, (position, rotation)
 
 

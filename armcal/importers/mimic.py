@@ -18,6 +18,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
+from armcal.errors import shown_text
 from armcal.kinematics.transforms import trans
 
 if TYPE_CHECKING:
@@ -52,17 +53,22 @@ def mimics_on(document: _Document, moving: list[ET.Element]) -> dict[ET.Element,
             groups.append(last)
     out, seen = {}, {}
     for group, master in groups:
-        first, name = group[0], master.get("name")
+        first = group[0]
         if master in moving:
-            raise document.error(first, f"joint '{first.get('name')}' mimics '{name}', which is on the chain too (line {document.lines[master]}): "
+            raise document.error(first, f"joint '{_shown(first)}' mimics '{_shown(master)}', which is on the chain too (line {document.lines[master]}): "
                                         "armcal's joints move each by a value of its own (two joints moved by one value are not imported)")
-        if name in seen:
-            raise document.error(first, f"joint '{first.get('name')}' mimics '{name}' as '{seen[name].get('name')}' (line {document.lines[seen[name]]}) does, "
+        if master in seen:
+            raise document.error(first, f"joint '{_shown(first)}' mimics '{_shown(master)}' as '{_shown(seen[master])}' (line {document.lines[seen[master]]}) does, "
                                         "with a moving joint between them: armcal's joints move each by a value of its own (two joints moved by one value are not imported)")
-        seen[name] = first
+        seen[master] = first
         for joint in group:
             out[joint] = _mimic(document, joint, master, tuple(group))
     return out
+
+
+def _shown(joint: ET.Element) -> str:
+    """A joint's name as a message shows it (errors.shown_text)."""
+    return shown_text(joint.get("name", "?"), "a name")
 
 
 def _master(document: _Document, joint: ET.Element, joints: dict[str, ET.Element]) -> ET.Element | None:
@@ -70,32 +76,32 @@ def _master(document: _Document, joint: ET.Element, joints: dict[str, ET.Element
     element = joint.find("mimic")
     if element is None:
         return None
-    name, kind = joint.get("name"), joint.get("type")
+    name, kind = _shown(joint), joint.get("type")
     if not element.get("joint"):
         raise document.error(element, f"joint '{name}': <mimic> needs the attribute joint (the joint it mimics)")
     master = joints.get(element.get("joint"))
     if master is None:
-        raise document.error(element, f"joint '{name}' mimics '{element.get('joint')}', which is no joint of the file")
+        raise document.error(element, f"joint '{name}' mimics '{shown_text(element.get('joint'), 'a name')}', which is no joint of the file")
     if master.find("mimic") is not None:
-        raise document.error(element, f"joint '{name}' mimics '{master.get('name')}', itself a mimic joint (line {document.lines[master]}): "
+        raise document.error(element, f"joint '{name}' mimics '{_shown(master)}', itself a mimic joint (line {document.lines[master]}): "
                                       "armcal imports mimic joints of a joint that moves on its own")
     if MOVING.get(master.get("type")) != MOVING[kind]:
-        raise document.error(element, f"joint '{name}' ({kind}) mimics '{master.get('name')}' ({master.get('type')}, line {document.lines[master]}): "
+        raise document.error(element, f"joint '{name}' ({kind}) mimics '{_shown(master)}' ({shown_text(master.get('type'), 'a type')}, line {document.lines[master]}): "
                                       "armcal imports mimic joints of a joint of their kind (revolute or continuous, or prismatic)")
     return master
 
 
 def _mimic(document: _Document, joint: ET.Element, master: ET.Element, group: tuple[ET.Element, ...]) -> Mimic:
     """``joint``'s multiplier and offset (in mm or rad), a revolute group checked to be one mimic of multiplier 1."""
-    element, name = joint.find("mimic"), joint.get("name")
+    element, name = joint.find("mimic"), _shown(joint)
     (multiplier,) = document.numbers(element, "multiplier", 1, "1")
     (offset,) = document.numbers(element, "offset", 1, "0", *(("length", "m") if joint.get("type") == "prismatic" else ("angle", "rad")))
     if MOVING[joint.get("type")] == "revolute":
         if len(group) > 1:
-            raise document.error(group[1], f"joint '{group[1].get('name')}' mimics '{master.get('name')}' as '{group[0].get('name')}' "
+            raise document.error(group[1], f"joint '{_shown(group[1])}' mimics '{_shown(master)}' as '{_shown(group[0])}' "
                                            f"(line {document.lines[group[0]]}) does: armcal imports one revolute mimic joint per master")
         if multiplier != 1:
-            raise document.error(element, f"joint '{name}' mimics '{master.get('name')}' with multiplier {multiplier:g}: armcal imports a "
+            raise document.error(element, f"joint '{name}' mimics '{_shown(master)}' with multiplier {multiplier:g}: armcal imports a "
                                            "revolute mimic joint that turns as its master does (multiplier 1)")
     return Mimic(master, float(multiplier), float(offset), group)
 
@@ -117,10 +123,10 @@ class Slide:
         """(Trans(c), the unit direction d / |d|), the group checked to move 1 mm per mm of its master."""
         gear = float(np.linalg.norm(self.d))
         if abs(gear - 1.0) > UNIT_GEAR:
-            names = ", ".join(f"'{j.get('name')}'" for j in mimic.group)
+            names = ", ".join(f"'{_shown(j)}'" for j in mimic.group)
             multipliers = ", ".join(f"{m:g}" for m in self.multipliers)
             plural = "s" if len(mimic.group) > 1 else ""
-            raise document.error(mimic.group[0], f"joint{plural} {names} mimicking '{mimic.master.get('name')}' with multiplier{plural} {multipliers} "
-                                                 f"move the chain {gear:.12g} mm per mm of '{mimic.master.get('name')}', and armcal's joints move as "
+            raise document.error(mimic.group[0], f"joint{plural} {names} mimicking '{_shown(mimic.master)}' with multiplier{plural} {multipliers} "
+                                                 f"move the chain {gear:.12g} mm per mm of '{_shown(mimic.master)}', and armcal's joints move as "
                                                  "their reading does (1 mm per mm): not imported")
         return trans(*self.c), self.d / gear

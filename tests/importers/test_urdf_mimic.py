@@ -186,6 +186,8 @@ BAD = {  # name: (URDF text, the message after "FILE:LINE: ")
                    "3: joint 'a' (prismatic) mimics 'm' (revolute, line 4): armcal imports mimic joints of a joint of their kind "
                    "(revolute or continuous, or prismatic)"),
     "no-master": (_chain(("a", "revolute", LIMIT + '<mimic joint="ghost"/>')), "3: joint 'a' mimics 'ghost', which is no joint of the file"),
+    "long-name": (_chain(("a", "revolute", LIMIT + f'<mimic joint="{"g" * 300}"/>')),
+                  "3: joint 'a' mimics 'a name of 300 characters (not shown)', which is no joint of the file"),
 }
 
 

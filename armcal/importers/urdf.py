@@ -48,7 +48,7 @@ class UrdfJoint:
     limits: tuple[float, float]  # rad or mm
     continuous: bool
     link: str  # the link it moves (its child)
-    frame: np.ndarray  # that link's frame in the frame the joint turns, z on the axis: S^-1 (mm)
+    frame: np.ndarray  # that link's frame in the frame the joint turns, z on the axis: S^-1 (a mimic group: S^-1 A, moved across the axis) (mm)
 
 
 @dataclass(frozen=True)

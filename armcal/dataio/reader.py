@@ -208,6 +208,7 @@ def read_measurements(path: Path, spec: Spec) -> Measurements:
         rows=np.arange(2, count + 2),
         source=path,
         sample=tuple(text["sample"]) if "sample" in text else None,
+        register=np.array([use == "register" for use in text["use"]]) if "use" in text else None,
     )
 
 

@@ -85,6 +85,19 @@ class DeviceModel(ABC):
 
     off_robot_targets: tuple[str, ...] = ()  # names in a target column that are not on the robot (no joint values)
 
+    # Its set-ups: a station with a frame of its own (a tracker before a robot set up anew at each)
+    def station(self, key: Key) -> str | None:
+        """The station a key's readings were taken at; None: the instrument's one placement (robot_base)."""
+        return None
+
+    def placed(self, key: Key) -> Key:
+        """The same readings taken in the instrument's one placement (robot_base) instead of at a station."""
+        return key
+
+    def stations(self) -> tuple[str, ...]:
+        """The stations whose frames are parameters of the model (the spec declares them)."""
+        return ()
+
     def pose_keys(self) -> list[Key]:
         """The keys read at every pose of a pose list."""
         return [(target,) for target in self.spec.seen_targets()]

@@ -216,14 +216,19 @@ def changed(geom, change, s):
     elif kind == "target":
         g["targets"][index] = g["targets"][index] + s * np.eye(3)[f]
     else:  # a small translation / rotation of the tracker frame
-        T = np.eye(4)
-        if f < 3:
-            T[f, 3] = s
-        else:
-            a, b = [m for m in range(3) if m != f - 3]
-            T[a, b], T[b, a] = -s, s
-        g["robot_base"] = T @ g["robot_base"]
+        g["robot_base"] = small_motion(f, s) @ g["robot_base"]
     return g
+
+
+def small_motion(f, s):
+    """A shift of s along axis f (0-2) or a turn of s about axis f - 3 (3-5), to first order, as a 4x4 transform."""
+    T = np.eye(4)
+    if f < 3:
+        T[f, 3] = s
+    else:
+        a, b = [m for m in range(3) if m != f - 3]
+        T[a, b], T[b, a] = -s, s
+    return T
 
 
 def geometry_jacobian(geom, device, q, keys, eps=1e-5):
@@ -432,13 +437,7 @@ def station_jacobians(geom, station, q, names, eps=1e-6):
             row = list(g["rows"][i]); row[f] += s * (DEG if f in (0, 3, 4) else 1.0); g["rows"][i] = tuple(row)
         return station_readings(g, station, q).ravel()
     def frame(k, s):
-        T = np.eye(4)
-        if k < 3:
-            T[k, 3] = s
-        else:
-            a, b = [m for m in range(3) if m != k - 3]
-            T[a, b], T[b, a] = -s, s
-        g = dict(geom, stations={station: geom["stations"][station] @ T})
+        g = dict(geom, stations={station: geom["stations"][station] @ small_motion(k, s)})
         return station_readings(g, station, q).ravel()
     J_robot = np.column_stack([(robot(n, eps) - robot(n, -eps)) / (2 * eps) for n in names])
     J_frame = np.column_stack([(frame(k, eps) - frame(k, -eps)) / (2 * eps) for k in range(6)])

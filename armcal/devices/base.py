@@ -74,6 +74,10 @@ class DeviceModel(ABC):
     def reading_columns(self, header: list[str]) -> tuple[dict[str, str], dict[str, str]]:
         """Required and optional reading columns -> kind (length, angle) of a data file with this header."""
 
+    def key_of(self, values: tuple) -> Key:
+        """A sample's key from its key columns' values, the optional ones None where left empty."""
+        return values
+
     def key_names(self, robot) -> dict[str, set[str]]:
         """The names each key column accepts (the empty string: an optional column left empty): by default the targets
         it measures, or any robot target when its section names none (a sonic digitizer's sparkers)."""

@@ -1,6 +1,6 @@
 """Laser tracker (or CMM, or any 3D point device): a target's position in the instrument frame.
 
-A key is (target, station). Readings: x, y, z = scale * (P p) with P the robot
+A key is (target,), or (target, station) for a reading at a station. Readings: x, y, z = scale * (P p) with P the robot
 base in the instrument frame; with ``orientation``, also rx, ry, rz, the intrinsic
 XYZ Euler angles of the target frame in the instrument frame (R = Rx Ry Rz).
 P is ``robot_base`` for a reading at no station, else its station's own frame
@@ -126,11 +126,15 @@ class TrackerModel(DeviceModel):
             entries += pose_entries(_frame(name), station.robot_base)
         self.parameters = ParameterSet(tuple(entries))
 
+    def key_of(self, values: tuple) -> Key:
+        """(target,) at no station, as without a station column; (target, station) at one."""
+        return values if values[1] is not None else values[:1]
+
     def station(self, key: Key) -> str | None:
         return key[1] if len(key) > 1 else None
 
     def placed(self, key: Key) -> Key:
-        return (key[0], None)
+        return key[:1]
 
     def stations(self) -> tuple[str, ...]:
         return tuple(self.spec.stations)

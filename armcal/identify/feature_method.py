@@ -58,7 +58,7 @@ def feature_parameters(spec: Spec, points: Measurements, parameters: ParameterSe
     procedure = spec.procedure
     sweeps = []
     for i, target in enumerate(procedure.targets):
-        rows = np.array([key[0] == target for key in points.keys])
+        rows = np.array([key == (target,) for key in points.keys])
         xyz = np.stack([points.readings[c][rows] for c in "xyz"], axis=1)
         sweeps.append((xyz, points.q[rows, i]))
     for i, (xyz, q) in enumerate(sweeps, start=1):
@@ -78,7 +78,7 @@ def feature_parameters(spec: Spec, points: Measurements, parameters: ParameterSe
         set_value(f"robot_base.{field}", value)
     chain = compile_robot(DHRobot.model_validate(pseudo.robot_dict("features", "-", np.array([j.limits for j in robot.joints])), context={"units": {"length": "mm", "angle": "rad"}}))
     for i, (target, (xyz, _)) in enumerate(zip(procedure.targets, sweeps), start=1):
-        rows = np.array([key[0] == target for key in points.keys])
+        rows = np.array([key == (target,) for key in points.keys])
         frames = chain.link_frames_batch(points.q[rows])[:, i]
         local = np.einsum("nij,nj->ni", np.linalg.inv(frames), np.c_[xyz, np.ones(len(xyz))])[:, :3]
         for field, value in zip("xyz", local.mean(axis=0)):

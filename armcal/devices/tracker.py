@@ -1,13 +1,14 @@
 """Laser tracker (or CMM, or any 3D point device): a target's position in the instrument frame.
 
-A key is (target,), or (target, station) for a reading at a station. Readings: x, y, z = scale * (P p) with P the robot
-base in the instrument frame; with ``orientation``, also rx, ry, rz, the intrinsic
-XYZ Euler angles of the target frame in the instrument frame (R = Rx Ry Rz).
-P is ``robot_base`` for a reading at no station, else its station's own frame
-(``station.<name>``): a robot whose base is set up anew at each station, as a
-theodolite network has a frame per station (Stone 6.5). A data file's optional
-``use`` column marks held-out rows that re-register a new station (``register``)
-and those that are predicted (``evaluate``, the default).
+A key is (target,), or (target, station) for a reading at a station. Readings:
+x, y, z = scale * (P p) with P the robot base in the instrument frame; with
+``orientation``, also rx, ry, rz, the intrinsic XYZ Euler angles of the target
+frame in the instrument frame (R = Rx Ry Rz). P is ``robot_base`` for a reading at
+no station, else its station's own frame (``station.<name>``): a robot whose base
+is set up anew at each station, as a theodolite network has a frame per station;
+each frame is the 6 parameters of Goswami's count (1) once more. A data file's
+optional ``use`` column marks held-out rows that re-register a new station
+(``register``) and those that are predicted (``evaluate``, the default).
 """
 
 from __future__ import annotations

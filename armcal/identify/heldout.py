@@ -1,20 +1,21 @@
 """Held-out data taken after the instrument was moved: re-register it before every evaluation.
 
 The robot's parameters under test stay as given; only the instrument-to-base
-transform is set anew, so the held-out error still judges the robot model alone.
+transform (the 6 of Goswami's count (1); the instrument's pose Stone's 2.5 adds to the
+model, (2.32)) is set anew, so the held-out error still judges the robot model alone.
 
-- The whole set taken after the instrument was set up anew (``data.instrument_moved``):
-  the transform is the least-squares rigid registration (Kabsch) of the predicted
-  target positions onto the measured ones. (A weighted fit of all readings would trade
-  positions for the far more precise orientations whenever the model is poor.)
-- A station the calibration data do not have (a robot set up anew at each station, as
-  a theodolite network has a frame per station, Stone 6.5): its frame is fitted to that
-  station's rows marked ``use: register`` alone, the 6 frame parameters by Gauss-Newton
-  from their rigid registration, the robot held; only its other rows are predicted, so
-  the held-out figures never include a reading that placed its own frame. Their Jacobian
-  is the total derivative with the frame re-fitted, J_e - J_eF (J_rF^+ J_r), and
-  ``registration_noise`` gives the covariance the frame's own fit adds to them,
-  J_eF (J_rF' J_rF)^-1 J_eF' (weighted readings), for the held-out check.
+- The whole set taken after the instrument was set up anew (``data.instrument_moved``,
+  no row marked): the transform is the least-squares rigid registration (Kabsch) of the
+  predicted target positions onto the measured ones. (A weighted fit of all readings would
+  trade positions for the far more precise orientations whenever the model is poor.)
+- A station the calibration data do not have (a robot set up anew at each station), or the
+  moved instrument's readings at no station where the data mark rows: the frame is fitted
+  to the rows marked ``use: register`` alone, its 6 parameters by Gauss-Newton from their
+  rigid registration, the robot held; only the other rows are predicted, so the held-out
+  figures never include a reading that placed its own frame. Their Jacobian is the total
+  derivative with the frame re-fitted, J_e - J_eF (J_rF^+ J_r), and ``registration_noise``
+  gives the covariance the frame's own fit adds to them, J_eF (J_rF' J_rF)^-1 J_eF'
+  (weighted readings), for the held-out check.
 """
 
 from __future__ import annotations
@@ -118,34 +119,39 @@ class NewStations(Problem):
 
 
 def held_out(kinematics: KinematicModel, device: DeviceModel, data: Measurements, effects: EffectSet, instrument_moved: bool) -> Problem:
-    """The validation problem: its new stations re-registered, or the instrument when it was moved."""
-    new = [s for s in dict.fromkeys(device.station(k) for k in data.keys) if s is not None and s not in device.stations()]
+    """The validation problem: its new stations re-registered, or the instrument when it was moved (from the rows
+    marked register where the data mark any, else from all of them)."""
+    stations = list(dict.fromkeys(device.station(k) for k in data.keys))
+    new = [s for s in stations if s is not None and s not in device.stations()]
     if not new and data.register is None:
         problem = build_problem(kinematics, device, data, effects)
         if not instrument_moved:
             return problem
         return MovedInstrument(problem.parameters, problem.n_robot, problem.blocks, problem.residuals, problem.design,
                                kinematics=kinematics, device=device, data=data)
-    return _new_stations(kinematics, device, data, effects, new)
+    return _new_stations(kinematics, device, data, effects, new + ([None] if instrument_moved and None in stations else []))
 
 
-def _new_stations(kinematics: KinematicModel, device: DeviceModel, data: Measurements, effects: EffectSet, new: list[str]) -> NewStations:
-    """The held-out problem of data at calibrated frames and at ``new`` stations; rows marked register are never predicted."""
+def _new_stations(kinematics: KinematicModel, device: DeviceModel, data: Measurements, effects: EffectSet,
+                  moved: list[str | None]) -> NewStations:
+    """The held-out problem of data at calibrated frames and at the ``moved`` stations (None: the readings at no
+    station), each re-registered from its rows marked register; rows marked register are never predicted."""
     register = np.zeros(len(data), dtype=bool) if data.register is None else data.register
-    station = np.array([device.station(k) for k in data.keys], dtype=object)
-    parts = [(None, np.flatnonzero(~register & ~np.isin(station, new)))]
-    parts += [(name, np.flatnonzero(~register & (station == name))) for name in new]
+    at = [device.station(k) for k in data.keys]
+    rows_at = lambda name, marked: np.flatnonzero([s == name and r == marked for s, r in zip(at, register)])  # noqa: E731
+    parts = [(False, None, np.flatnonzero([s not in moved and not r for s, r in zip(at, register)]))]
+    parts += [(True, name, rows_at(name, False)) for name in moved]
     problems, stations, first, block = [], [], 0, 0
-    for name, rows in parts:
-        if name is not None:
-            registering = _placed(device, data.subset(np.flatnonzero(register & (station == name))))
+    for moving, name, rows in parts:
+        if moving:
+            registering = _placed(device, data.subset(rows_at(name, True)))
             _check_registration(data, name, registering)
         if not len(rows):
             continue
-        problem = build_problem(kinematics, device, data.subset(rows) if name is None else _placed(device, data.subset(rows)), effects)
+        problem = build_problem(kinematics, device, _placed(device, data.subset(rows)) if moving else data.subset(rows), effects)
         problems.append((rows, problem))
         size = len(problem.residuals.sigma)
-        if name is not None:
+        if moving:
             stations.append(Station(first, first + size, range(block, block + len(problem.blocks)),
                                     build_problem(kinematics, device, registering, effects), registering))
         first, block = first + size, block + len(problem.blocks)
@@ -169,14 +175,15 @@ def _placed(device: DeviceModel, data: Measurements) -> Measurements:
     return Measurements(tuple(device.placed(k) for k in data.keys), data.q, data.readings, data.extras, data.rows, data.source, data.sample, data.register)
 
 
-def _check_registration(data: Measurements, name: str, registering: Measurements) -> None:
+def _check_registration(data: Measurements, name: str | None, registering: Measurements) -> None:
     """A frame is fixed by 3 or more registered points not on one line."""
     points = np.stack([registering.readings[c] for c in "xyz"], axis=1) if len(registering) else np.zeros((0, 3))
     spread = np.linalg.svd(points - points.mean(axis=0), compute_uv=False) if len(points) >= 3 else np.zeros(3)
     if len(points) < 3 or spread[1] <= 1e-6 * spread[0]:
         lines = ", ".join(str(int(line)) for line in registering.rows) if len(registering) else "none"
+        which = f"held-out station {name!r} is not in the calibration data" if name is not None else "the instrument moved (data.instrument_moved)"
         raise UserError(
-            f"{data.source}: held-out station {name!r} is not in the calibration data, so its frame is re-registered from its "
+            f"{data.source}: {which}, so its frame is re-registered from its "
             f"rows marked use: register, and it has {len(points)} (lines: {lines}){' on one line' if len(points) >= 3 else ''}; "
             "mark at least 3 readings of points not on one line as use: register"
         )

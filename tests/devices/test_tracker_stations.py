@@ -126,3 +126,37 @@ def test_a_calibration_station_the_spec_does_not_declare_is_a_located_error(tmp_
     result = _armcal_run(info["spec"])
     assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
     assert "calibration.csv" in result.stderr and "'s9' is not one of device.stations" in result.stderr
+
+
+def test_a_moved_instrument_at_no_station_is_re_registered_from_its_register_rows(tmp_path):
+    info = write_stationed_campaign(tmp_path, seed=9, errors=ERRORS, poses=40, register=8, evaluate=20)
+    path = tmp_path / "validation.csv"
+    lines = path.read_text().splitlines()
+    kept = [lines[0]] + [line.replace(",smr,n1,", ",smr,,") for line in lines[1:] if ",smr,n1," in line]
+    path.write_text("\n".join(kept) + "\n")
+    spec = info["spec"]
+    spec.write_text(spec.read_text().replace("validation: validation.csv}", "validation: validation.csv, instrument_moved: true}"))
+    results = run(spec, tmp_path / "out", pdf=False).results
+    assert results.residuals.validation.after.n == 20 * 3  # the register rows placed the frame and are no held-out figure
+    assert results.held_out_check.verdict == "consistent", results.held_out_check
+
+
+def test_simulate_reads_every_pose_at_every_declared_station(tmp_path):
+    info = write_stationed_campaign(tmp_path, seed=10, errors={}, poses=20, register=3, evaluate=5)
+    spec = info["spec"]
+    text = spec.read_text().replace("validation: validation.csv}", "validation: validation.csv}\nsimulate: {seed: 4}")
+    for name in ("s1", "s2", "s3"):  # guesses near the frames the stations stand at
+        f = STATIONS[name]
+        text = text.replace(f"{name}: {{robot_base: {{x: 0, y: 0, z: 0, rz: 0, ry: 0, rx: 0}}}}",
+                            f"{name}: {{robot_base: {{x: {f['x']}, y: {f['y']}, z: {f['z']}, rz: {f['rz']}, ry: {f['ry']}, rx: {f['rx']}}}}}")
+    spec.write_text(text)
+    simulated = subprocess.run([sys.executable, "-m", "armcal", "simulate", str(spec), "--out", str(tmp_path), "--force"],
+                               capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert simulated.returncode == 0, simulated.stderr
+    rows = [line.split(",") for line in (tmp_path / "calibration.csv").read_text().splitlines()]
+    station = rows[0].index("station")
+    assert [r[station] for r in rows[1:]] == ["s1"] * 20 + ["s2"] * 20 + ["s3"] * 20  # the procedure's 20 poses at each
+    joints = slice(rows[0].index("q1"), rows[0].index("q6") + 1)
+    assert [r[joints] for r in rows[1:21]] == [r[joints] for r in rows[21:41]] == [r[joints] for r in rows[41:61]]
+    results = run(spec, tmp_path / "out", pdf=False).results
+    assert results.noise_check.verdict == "consistent"

@@ -106,7 +106,8 @@ class Tracker(DeviceSpec):
         ]
 
     def describe(self, length) -> tuple[str, list[str]]:
-        return "laser tracker" + (" (position and orientation)" if self.orientation else ""), [f"targets {', '.join(self.targets)}"]
+        stations = [f"stations {', '.join(self.stations)}"] if self.stations else []
+        return "laser tracker" + (" (position and orientation)" if self.orientation else ""), [f"targets {', '.join(self.targets)}", *stations]
 
 
 def _frame(station: str | None) -> str:

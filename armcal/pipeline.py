@@ -75,6 +75,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
         validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
         for data in filter(None, (calibration, validation)):
             check_readable(device, data)
+        check_stations(device, calibration)
     with stage("identifying the robot and diagnosing the residuals"):
         calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
     truth = find_truth(calibration_path)
@@ -113,6 +114,19 @@ def check_readable(device, data) -> None:
     problems = device.unreadable(data)
     if problems:
         raise SpecError([Issue(data.source, line, None, column, message) for line, column, message in problems[:20]])
+
+
+def check_stations(device, calibration) -> None:
+    """Every station the calibration data name has its frame in the spec (held-out data may name new ones)."""
+    declared = device.stations()
+    problems = [(int(line), name) for key, line in zip(calibration.keys, calibration.rows)
+                if (name := device.station(key)) is not None and name not in declared]
+    if problems:
+        known = ", ".join(declared) or "none"
+        raise SpecError([Issue(calibration.source, line, None, "station",
+                               f"station {name!r} is not one of device.stations (the spec's: {known}); declare it there "
+                               "(only held-out data may name new stations, re-registered from their rows marked use: register)")
+                         for line, name in problems[:20]])
 
 
 def fitted_device(spec, raw):

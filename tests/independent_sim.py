@@ -216,14 +216,19 @@ def changed(geom, change, s):
     elif kind == "target":
         g["targets"][index] = g["targets"][index] + s * np.eye(3)[f]
     else:  # a small translation / rotation of the tracker frame
-        T = np.eye(4)
-        if f < 3:
-            T[f, 3] = s
-        else:
-            a, b = [m for m in range(3) if m != f - 3]
-            T[a, b], T[b, a] = -s, s
-        g["robot_base"] = T @ g["robot_base"]
+        g["robot_base"] = small_motion(f, s) @ g["robot_base"]
     return g
+
+
+def small_motion(f, s):
+    """A shift of s along axis f (0-2) or a turn of s about axis f - 3 (3-5), to first order, as a 4x4 transform."""
+    T = np.eye(4)
+    if f < 3:
+        T[f, 3] = s
+    else:
+        a, b = [m for m in range(3) if m != f - 3]
+        T[a, b], T[b, a] = -s, s
+    return T
 
 
 def geometry_jacobian(geom, device, q, keys, eps=1e-5):
@@ -356,3 +361,84 @@ def write_campaign(folder: pathlib.Path, robot: str, device: str, effect: str, s
                        "expected_statistic": len(signature) * v2 / (1 + v2)},
             "truth": truth,
             "geometry": geom, "hidden": (eff, amp)}  # readings(geometry, device, q, keys, *hidden): the true robot
+
+
+# ------------------------------------------------------------------ a robot set up at stations
+STATIONS = {  # the robot base frame in the tracker frame at each set-up (mm, deg)
+    "s1": dict(x=2000.0, y=-500.0, z=300.0, rz=30.0, ry=1.0, rx=-2.0),
+    "s2": dict(x=-1800.0, y=900.0, z=-200.0, rz=-140.0, ry=-2.0, rx=1.5),
+    "s3": dict(x=300.0, y=2500.0, z=100.0, rz=95.0, ry=3.0, rx=0.5),
+    "n1": dict(x=2400.0, y=400.0, z=-100.0, rz=175.0, ry=-1.0, rx=2.5),
+    "n2": dict(x=-600.0, y=-2200.0, z=250.0, rz=-60.0, ry=2.0, rx=-1.0),
+}
+
+
+def write_stationed_campaign(folder: pathlib.Path, seed: int, errors: dict[str, float], *, poses: int = 60,
+                             register: int = 8, evaluate: int = 25) -> dict:
+    """A PUMA 560 with a tracker, its base set up at calibration stations s1, s2, s3 (``poses`` configurations
+    each) and at held-out stations n1, n2 (``register`` rows marked use: register, then ``evaluate`` rows), from
+    docs/devices/tracker.md's station columns. The true robot is the nominal one plus ``errors`` (armcal's names:
+    j2.a mm, j2.alpha deg, smr.x mm...). Writes spec.yaml, calibration.csv, validation.csv; returns the truth and
+    the true readings' Jacobians the held-out statistics need."""
+    rng = np.random.default_rng(seed)
+    folder = pathlib.Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    geom = stationed_geometry(errors)
+    noise = TRACKER["noise"]
+    calibration, validation = [], []
+    for name in ("s1", "s2", "s3"):
+        calibration += [(name, "", q) for q in sample_configurations("puma560", poses, rng)]
+    for name in ("n1", "n2"):
+        validation += [(name, "register", q) for q in sample_configurations("puma560", register, rng)]
+        validation += [(name, "evaluate", q) for q in sample_configurations("puma560", evaluate, rng)]
+    for file, rows in (("calibration.csv", calibration), ("validation.csv", validation)):
+        head = ["sample", "target", "station", *(f"q{i}" for i in range(1, 7)), "x", "y", "z"] + (["use"] if file == "validation.csv" else [])
+        lines = [",".join(head)]
+        for n, (station, use, q) in enumerate(rows, start=1):
+            y = station_readings(geom, station, q[None] * DEG)[0] + rng.normal(0, noise, 3)
+            lines.append(",".join([str(n), "smr", station, *(f"{v:.10f}" for v in q), *(f"{v:.6f}" for v in y)] + ([use] if use else [])))
+        (folder / file).write_text("\n".join(lines) + "\n")
+    text = spec_text("puma560", "tracker").replace("count: 120", f"count: {poses}")
+    stations = "".join(f"\n    {s}: {{robot_base: {{x: 0, y: 0, z: 0, rz: 0, ry: 0, rx: 0}}}}   # registered by armcal" for s in ("s1", "s2", "s3"))
+    text = text.replace("  noise:", "  stations:" + stations + "\n  noise:", 1)
+    (folder / "spec.yaml").write_text(text)
+    return {"spec": folder / "spec.yaml", "geometry": geom, "noise": noise,
+            "calibration": calibration, "validation": validation}
+
+
+def stationed_geometry(errors: dict[str, float]):
+    """The nominal PUMA 560 DH rows (Hayati beta on the parallel pair) and tracker target, plus ``errors``."""
+    rows = []
+    for i, (theta, d, a, alpha) in enumerate(ROBOTS["puma560"]["dh"]):
+        e = lambda field: errors.get(f"j{i + 1}.{field}", 0.0)  # noqa: E731
+        rows.append(((theta + e("theta")) * DEG, d + e("d"), a + e("a"), (alpha + e("alpha")) * DEG, e("beta") * DEG))
+    target = np.array(TRACKER["target"]) + [errors.get(f"smr.{c}", 0.0) for c in "xyz"]
+    frames_ = {s: pose(f["x"], f["y"], f["z"], f["rz"] * DEG, f["ry"] * DEG, f["rx"] * DEG) for s, f in STATIONS.items()}
+    return dict(rows=rows, targets={"smr": target}, stations=frames_)
+
+
+def station_readings(geom, station, q):
+    """Noise-free x, y, z (N, 3) of the target at joint angles q (N, 6, rad) with the base at ``station``."""
+    p = frames(geom, q)[-1] @ np.append(geom["targets"]["smr"], 1.0)
+    return (p @ geom["stations"][station].T)[:, :3]
+
+
+def station_jacobians(geom, station, q, names, eps=1e-6):
+    """d readings / d (the robot's ``names``, armcal's, mm and deg) and d readings / d (the station frame: small
+    shifts and turns), flattened per reading, central differences."""
+    def robot(name, s):
+        field_of = {"theta": 0, "d": 1, "a": 2, "alpha": 3, "beta": 4}
+        g = dict(geom, rows=list(geom["rows"]), targets=dict(geom["targets"]))
+        head, field = name.split(".")
+        if head == "smr":
+            g["targets"]["smr"] = g["targets"]["smr"] + s * np.eye(3)["xyz".index(field)]
+        else:
+            i, f = int(head[1:]) - 1, field_of[field]
+            row = list(g["rows"][i]); row[f] += s * (DEG if f in (0, 3, 4) else 1.0); g["rows"][i] = tuple(row)
+        return station_readings(g, station, q).ravel()
+    def frame(k, s):
+        g = dict(geom, stations={station: geom["stations"][station] @ small_motion(k, s)})
+        return station_readings(g, station, q).ravel()
+    J_robot = np.column_stack([(robot(n, eps) - robot(n, -eps)) / (2 * eps) for n in names])
+    J_frame = np.column_stack([(frame(k, eps) - frame(k, -eps)) / (2 * eps) for k in range(6)])
+    return J_robot, J_frame

@@ -18,7 +18,8 @@ class Measurements:
     (N,) array, NaN where a sample has no such reading. ``extras`` holds the
     optional columns (``t``, ``temperature``, ``dir`` (N, n), calibration-rod
     ranges). ``rows`` are the file's line numbers, so results can point back to
-    the data.
+    the data. ``register`` marks held-out samples that only re-register their
+    station's frame (a tracker's ``use`` column: register); None: no such column.
     """
 
     keys: tuple[Key, ...]
@@ -28,6 +29,7 @@ class Measurements:
     rows: np.ndarray | None = None
     source: Path | None = None
     sample: tuple[str, ...] | None = None
+    register: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.keys)
@@ -43,6 +45,7 @@ class Measurements:
             rows=pick(self.rows),
             source=self.source,
             sample=None if self.sample is None else tuple(self.sample[i] for i in rows),
+            register=pick(self.register),
         )
 
     def groups(self) -> dict[Key, np.ndarray]:

@@ -201,13 +201,14 @@ def read_measurements(path: Path, spec: Spec) -> Measurements:
     if "dir1" in values:
         extras["dir"] = np.stack([values.get(f"dir{i}", np.zeros(count)) for i in range(1, n + 1)], axis=1)
     return Measurements(
-        keys=_keys(cols, text, count),
+        keys=tuple(device.key_of(key) for key in _keys(cols, text, count)),
         q=np.stack([values[f"q{i}"] for i in range(1, n + 1)], axis=1),
         readings=readings,
         extras=extras,
         rows=np.arange(2, count + 2),
         source=path,
         sample=tuple(text["sample"]) if "sample" in text else None,
+        register=np.array([use == "register" for use in text["use"]]) if "use" in text else None,
     )
 
 

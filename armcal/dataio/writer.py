@@ -41,7 +41,7 @@ def measurements_csv(measurements: Measurements, spec: Spec) -> str:
     kinds = cols.known
     for r, key in enumerate(measurements.keys):
         sample = measurements.sample[r] if measurements.sample else str(r + 1)
-        fields = [sample, *(key[i] or "" for i in range(width + len(present)))]
+        fields = [sample, *((key[i] if i < len(key) else None) or "" for i in range(width + len(present)))]
         fields += [_format(v, kinds[f"q{i + 1}"], spec) for i, v in enumerate(measurements.q[r])]
         fields += [_format(measurements.readings[c][r], kinds[c], spec) for c in channels]
         fields += [_format(measurements.extras[c][r], kinds.get(c, "number"), spec) for c in extra]

@@ -74,6 +74,10 @@ class DeviceModel(ABC):
     def reading_columns(self, header: list[str]) -> tuple[dict[str, str], dict[str, str]]:
         """Required and optional reading columns -> kind (length, angle) of a data file with this header."""
 
+    def key_of(self, values: tuple) -> Key:
+        """A sample's key from its key columns' values, the optional ones None where left empty."""
+        return values
+
     def key_names(self, robot) -> dict[str, set[str]]:
         """The names each key column accepts (the empty string: an optional column left empty): by default the targets
         it measures, or any robot target when its section names none (a sonic digitizer's sparkers)."""
@@ -84,6 +88,19 @@ class DeviceModel(ABC):
         return {}
 
     off_robot_targets: tuple[str, ...] = ()  # names in a target column that are not on the robot (no joint values)
+
+    # Its set-ups: a station with a frame of its own (a tracker before a robot set up anew at each)
+    def station(self, key: Key) -> str | None:
+        """The station a key's readings were taken at; None: the instrument's one placement (robot_base)."""
+        return None
+
+    def placed(self, key: Key) -> Key:
+        """The same readings taken in the instrument's one placement (robot_base) instead of at a station."""
+        return key
+
+    def stations(self) -> tuple[str, ...]:
+        """The stations whose frames are parameters of the model (the spec declares them)."""
+        return ()
 
     def pose_keys(self) -> list[Key]:
         """The keys read at every pose of a pose list."""

@@ -1,8 +1,14 @@
 """Laser tracker (or CMM, or any 3D point device): a target's position in the instrument frame.
 
-A key is (target,). Readings: x, y, z = scale * (P p) with P the robot base in
-the instrument frame; with ``orientation``, also rx, ry, rz, the intrinsic XYZ
-Euler angles of the target frame in the instrument frame (R = Rx Ry Rz).
+A key is (target,), or (target, station) for a reading at a station. Readings:
+x, y, z = scale * (P p) with P the robot base in the instrument frame; with
+``orientation``, also rx, ry, rz, the intrinsic XYZ Euler angles of the target
+frame in the instrument frame (R = Rx Ry Rz). P is ``robot_base`` for a reading at
+no station, else its station's own frame (``station.<name>``): a robot whose base
+is set up anew at each station, as a theodolite network has a frame per station;
+each frame is the 6 parameters of Goswami's count (1) once more. A data file's
+optional ``use`` column marks held-out rows that re-register a new station
+(``register``) and those that are predicted (``evaluate``, the default).
 """
 
 from __future__ import annotations
@@ -19,13 +25,20 @@ from armcal.effects.library import EffectSpec
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.kinematics.transforms import POSE_FIELDS, pose_from_matrix, rigid_registration
-from armcal.spec.base import ScaleParam, fixed
+from armcal.spec.base import ScaleParam, SpecModel, fixed
 from armcal.spec.starter import mm, flange_point, random_poses
 from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, AngleSigma, DeviceSpec, LengthSigma
 from armcal.spec.robot import Pose
 
 POSITION = tuple(Channel(c, "length") for c in ("x", "y", "z"))
 ORIENTATION = tuple(Channel(c, "angle") for c in ("rx", "ry", "rz"))
+USES = ("register", "evaluate")  # the values of a data file's use column
+
+
+class TrackerStation(SpecModel):
+    """One set-up of the robot before the instrument: its base frame there."""
+
+    robot_base: Pose = Field(description="the robot base frame in the instrument frame at this station (free: registered from the data)")
 
 
 def intrinsic_xyz(R):
@@ -42,6 +55,9 @@ class Tracker(DeviceSpec):
     type: Literal["tracker"]
     targets: list[str] = Field(min_length=1, description="names of robot targets measured")
     robot_base: Pose = Pose()
+    stations: dict[str, TrackerStation] = Field(
+        {}, description="the robot's set-ups, each with its own base frame; the data's station column names them"
+    )
     noise: LengthSigma = Field(description="position noise sigma per coordinate, or auto (estimated from the data)")
     orientation: bool = Field(False, description="the data also hold the target's orientation rx, ry, rz")
     orientation_noise: AngleSigma | None = Field(None, description="orientation noise sigma (needed with orientation), or auto")
@@ -67,6 +83,9 @@ class Tracker(DeviceSpec):
             yield ("device", "orientation_noise"), "a tracker that measures orientation needs orientation_noise (its sigma)"
 
     def parameter_location(self, name: str) -> list[str]:
+        head, _, field = name.rpartition(".")
+        if head.startswith("station."):
+            return ["device", "stations", head.split(".", 1)[1], "robot_base", field]
         return ["device", "scale"] if name == "tracker.scale" else super().parameter_location(name)
 
     @staticmethod
@@ -87,18 +106,45 @@ class Tracker(DeviceSpec):
         ]
 
     def describe(self, length) -> tuple[str, list[str]]:
-        return "laser tracker" + (" (position and orientation)" if self.orientation else ""), [f"targets {', '.join(self.targets)}"]
+        stations = [f"stations {', '.join(self.stations)}"] if self.stations else []
+        return "laser tracker" + (" (position and orientation)" if self.orientation else ""), [f"targets {', '.join(self.targets)}", *stations]
+
+
+def _frame(station: str | None) -> str:
+    """The parameter prefix of the robot base frame readings at ``station`` are taken in."""
+    return "robot_base" if station is None else f"station.{station}"
 
 
 class TrackerModel(DeviceModel):
     type = "tracker"
     section = Tracker
+    optional_key_columns = ("station",)
 
     def __init__(self, spec: Tracker):
         self.spec = spec
         entries = pose_entries("robot_base", spec.robot_base)
         entries.append(parameter_entry("tracker.scale", "scale", spec.scale))
+        for name, station in spec.stations.items():
+            entries += pose_entries(_frame(name), station.robot_base)
         self.parameters = ParameterSet(tuple(entries))
+
+    def key_of(self, values: tuple) -> Key:
+        """(target,) at no station, as without a station column; (target, station) at one."""
+        return values if values[1] is not None else values[:1]
+
+    def station(self, key: Key) -> str | None:
+        return key[1] if len(key) > 1 else None
+
+    def placed(self, key: Key) -> Key:
+        return key[:1]
+
+    def stations(self) -> tuple[str, ...]:
+        return tuple(self.spec.stations)
+
+    def pose_keys(self) -> list[Key]:
+        """Each target; with stations, each target at each station (every pose is read at every station)."""
+        targets = self.spec.seen_targets()
+        return [(t, s) for s in self.spec.stations for t in targets] if self.spec.stations else [(t,) for t in targets]
 
     def channels(self, key: Key) -> tuple[Channel, ...]:
         return POSITION + (ORIENTATION if self.spec.orientation else ())
@@ -107,7 +153,7 @@ class TrackerModel(DeviceModel):
         return key[0]
 
     def readings(self, key: Key, pose: ca.SX, sym: dict) -> ca.SX:
-        seen = ca.mtimes(pose_from_symbols(sym, "robot_base"), pose)
+        seen = ca.mtimes(pose_from_symbols(sym, _frame(self.station(key))), pose)
         readings = [sym["tracker.scale"] * seen[:3, 3]]
         if self.spec.orientation:
             readings += list(intrinsic_xyz(seen[:3, :3]))
@@ -127,22 +173,30 @@ class TrackerModel(DeviceModel):
         return "orientation" if field == "orientation_noise" else "position"
 
     def reading_columns(self, header: list[str]) -> tuple[dict[str, str], dict[str, str]]:
-        return {c.name: c.kind for c in self.channels(())}, {}
+        return {c.name: c.kind for c in self.channels(())}, {"use": "text"}
+
+    def key_names(self, robot) -> dict[str, set[str]]:
+        """Targets as the spec names them; any station (held-out data may name new ones); use: register or evaluate."""
+        return {**super().key_names(robot), "use": {"", *USES}}
 
     def candidate_effects(self, free: set[str]) -> list[EffectSpec]:
         return [] if "tracker.scale" in free else [EffectSpec("sensor_scale")]
 
     def registered(self, theta: np.ndarray, names: tuple[str, ...], free: set[str], kinematics, data) -> np.ndarray | None:
-        """A free tracker-to-base transform registered from the data: the rigid registration (Kabsch) of the target
-        positions the robot part of ``theta`` predicts onto the measured ones; components not ``free`` keep their values."""
-        if not any(f"robot_base.{f}" in free for f in POSE_FIELDS):
-            return None
-        nominal, measured = [], []
+        """A free tracker-to-base transform, one per station, registered from the data: the rigid registration (Kabsch)
+        of the target positions the robot part of ``theta`` predicts onto the measured ones, of the readings taken in
+        that frame; components not ``free`` keep their values."""
+        frames: dict[str, tuple[list, list]] = {}
         for key, rows in data.groups().items():
+            nominal, measured = frames.setdefault(_frame(self.station(key)), ([], []))
             nominal.append(kinematics.target_poses(key[0], data.q[rows], theta[: len(kinematics.parameters)])[:, :3, 3])
             measured.append(np.stack([data.readings[c][rows] for c in "xyz"], axis=1))
+        frames = {prefix: pair for prefix, pair in frames.items() if any(f"{prefix}.{f}" in free for f in POSE_FIELDS)}
+        if not frames:
+            return None
         registered = theta.copy()
-        for field, value in zip(POSE_FIELDS, pose_from_matrix(rigid_registration(np.concatenate(nominal), np.concatenate(measured)))):
-            if f"robot_base.{field}" in free:
-                registered[names.index(f"robot_base.{field}")] = value
+        for prefix, (nominal, measured) in frames.items():
+            for field, value in zip(POSE_FIELDS, pose_from_matrix(rigid_registration(np.concatenate(nominal), np.concatenate(measured)))):
+                if f"{prefix}.{field}" in free:
+                    registered[names.index(f"{prefix}.{field}")] = value
         return registered

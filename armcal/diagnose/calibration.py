@@ -93,7 +93,7 @@ def identify_and_diagnose(
     validation_problem = None
     if validation is not None:
         moved = spec.data is not None and spec.data.instrument_moved
-        validation_problem = held_out(build_problem(kinematics, device, validation, effects), kinematics, device, validation, moved)
+        validation_problem = held_out(kinematics, device, validation, effects, moved)
     return Calibration(problem, validation_problem, identify_parameters(spec, problem, raw, start), None, start, noise)
 
 

@@ -86,8 +86,7 @@ class _Context:
         self.effects, self.fit_settings, self.settings = effects, fit_settings, settings
         self.validation = None
         if validation is not None:
-            problem = build_problem(kinematics, device, validation, effects)
-            self.validation = held_out(problem, kinematics, device, validation, instrument_moved)
+            self.validation = held_out(kinematics, device, validation, effects, instrument_moved)
         self.judge = "validation" if settings.holdout == "validation" and self.validation is not None else "kfold"
         poses, self.pose = np.unique(np.round(np.nan_to_num(calibration.q), 9), axis=0, return_inverse=True)
         self.pose = self.pose.ravel()

@@ -6,8 +6,9 @@ readings poorly. Two reasons can be told apart with what the run has:
 - the parameters' own uncertainty: the calibration poses leave a direction of the
   parameters poorly determined (a flat direction of the base Jacobian), so the
   prediction at held-out poses carries the covariance C of the base parameters,
-  J_v C J_v' (the linearised propagation behind Stone's 7.4 spreads); the
-  weighted held-out residuals are expected with covariance S = I + J_v C J_v': the
+  J_v C J_v' (the linearised propagation behind Stone's 7.4 spreads), plus G G' where
+  held-out stations are re-registered from their own readings (identify/heldout.py); the
+  weighted held-out residuals are expected with covariance S = I + J_v C J_v' + G G': the
   residuals are weighted by the noise that is known (the declared sigmas, or those
   estimated from the data where the spec says auto), never by a noise scaled by the
   fit's own chi2, so "noise sigmas" are those sigmas (C itself is the reported one,
@@ -51,8 +52,9 @@ def held_out_check(calibration: Problem, validation: Problem | None, result: Fit
     uncertainty = result.uncertainty
     A = J[:, result.base]
     propagated = np.einsum("ij,jk,ik->i", A, uncertainty.covariance, A)
-    expected = 1.0 + propagated  # noise sigmas squared (module docstring)
-    chi2 = _chi2(r, A, uncertainty.covariance)
+    G = validation.registration_noise(theta)
+    expected = 1.0 + propagated + np.sum(G**2, axis=1)  # noise sigmas squared (module docstring)
+    chi2 = _chi2(r, A, uncertainty.covariance, G)
     dof = len(r)
     p_value = float(chdtrc(dof, chi2))
     share = float(propagated.sum() / expected.sum())
@@ -76,11 +78,12 @@ def held_out_check(calibration: Problem, validation: Problem | None, result: Fit
     }
 
 
-def _chi2(r: np.ndarray, A: np.ndarray, covariance: np.ndarray) -> float:
-    """r' S^-1 r with S = I + A C A' (n x n, never formed): C = V L V', B = A V L^1/2, and by Woodbury
-    S^-1 = I - B (I + B'B)^-1 B', a p x p solve for p base parameters."""
+def _chi2(r: np.ndarray, A: np.ndarray, covariance: np.ndarray, G: np.ndarray | None = None) -> float:
+    """r' S^-1 r with S = I + A C A' + G G' (n x n, never formed): C = V L V', B = [A V L^1/2, G], and by Woodbury
+    S^-1 = I - B (I + B'B)^-1 B', a solve of the size of the base parameters plus 6 per re-registered station."""
     values, vectors = np.linalg.eigh((covariance + covariance.T) / 2)
     B = A @ (vectors * np.sqrt(np.clip(values, 0.0, None)))
+    B = B if G is None else np.hstack([B, G])
     Br = B.T @ r
     inner = np.linalg.solve(np.eye(B.shape[1]) + B.T @ B, Br)
     return float(r @ r - Br @ inner)

@@ -58,6 +58,11 @@ class Problem:
         Jacobian there would count such a motion as information of the size of the nominal model's error."""
         return (self.design or self).evaluate(theta)[1]
 
+    def registration_noise(self, theta: np.ndarray) -> np.ndarray:
+        """G (M, k) with G G' the covariance that frames fitted to held-out data themselves add to the weighted
+        residuals (identify/heldout.py); none here."""
+        return np.zeros((len(self.residuals.sigma), 0))
+
     def evaluate(self, theta: np.ndarray, columns: np.ndarray | None = None, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Weighted residuals (M,) and their Jacobian (M, len(columns)), columns of theta (default: all).
 

@@ -151,7 +151,7 @@ def weak_lines(r) -> list[str]:
     weak = [(f.name, f.reason.removeprefix(WEAK + ": ")) for f in r.identifiability.fixed if f.reason.startswith(WEAK)]
     if not weak:
         return []
-    lines = [f"  held at nominal, {WEAK} (robot values the data determine too poorly to fit; measure poses that move them):"]
+    lines = [f"  held at nominal, {WEAK} (values the data determine too poorly to fit; measure poses that move them):"]
     lines += [f"    {name}: {why}" for name, why in weak[:IMPLAUSIBLE_SHOWN]]
     if len(weak) > IMPLAUSIBLE_SHOWN:
         lines.append(f"    and {len(weak) - IMPLAUSIBLE_SHOWN} more (results.json: identifiability.fixed)")

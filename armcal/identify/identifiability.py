@@ -22,9 +22,9 @@ by the spec and not by the last bits of the arithmetic (compiler, processor). So
 two parameters apart, the instrument or the target carries the difference and the
 robot's parameter stays at its nominal: a reflector on the last axis takes the
 flange's offset along it, a free tracker pose the first joint's zero. Effect parameters are added after the geometry (``extend``):
-one is kept only when its column keeps more than RANK_TOLERANCE of its norm off
+one is kept only when its column keeps more than EFFECT_NEW_PART of its norm off
 the base columns, so an effect never makes a geometric parameter identifiable that
-the geometry alone could not identify. Reported too: the observability index
+the geometry alone could not identify, nor is fitted along a near-flat direction. Reported too: the observability index
 O1 = (s_1 ... s_m)^(1/m) / sqrt(M) (Borm & Menq), directions no parameter can
 carry, such as the overall scale of a network, and, at the solution, the
 condition number and the flat directions of the scaled base Jacobian.
@@ -43,11 +43,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg
 
-from armcal.identify.precision import weakly_identifiable
+from armcal.identify.precision import WEAK, weakly_identifiable
 from armcal.identify.threads import each
 from armcal.kinematics.params import ParameterSet
 
 RANK_TOLERANCE = 1e-7  # norm of a unit column's part the columns chosen before it leave, below which it adds nothing
+EFFECT_NEW_PART = 1e-3  # an effect column's new part below which it is held: its std would be inflated over 1000-fold
+# (variance inflation 1/part^2 > 1e6), the fit would slide along that near-flat direction and not converge
 PRIORITY = ("device", "target", "chain")  # who carries a redundancy: the instrument and the targets before the robot
 FLAT_RATIO = 1e-3  # s_k / s_1 of the scaled base Jacobian below which a direction is reported as flat
 TIE = 1e-10  # difference of two unit columns' new parts below which the one first in the spec is taken (rounding
@@ -189,7 +191,8 @@ def extend(design: Identifiability, J: np.ndarray, parameters: ParameterSet, nam
 
     Each scaled column (at the design point) is projected off the base columns and the
     effect columns kept before it; one that keeps no more than RANK_TOLERANCE of its
-    norm is redundant: held at its value, with the base parameters that absorb it.
+    norm is redundant, one that keeps no more than EFFECT_NEW_PART weakly identifiable:
+    held at its value, with the base parameters that (nearly) absorb it.
     """
     J = triangular(J)
     index = parameters.index
@@ -206,8 +209,12 @@ def extend(design: Identifiability, J: np.ndarray, parameters: ParameterSet, nam
             fixed.append((name, "does not affect the measurements"))
             continue
         rest = _off(basis, (column / norm)[:, None])[:, 0]
-        if np.linalg.norm(rest) <= RANK_TOLERANCE:
-            fixed.append((name, _redundancies(scaled, base_names, (column / norm)[:, None])[0] + " at the design point"))
+        new_part = float(np.linalg.norm(rest))
+        if new_part <= EFFECT_NEW_PART:
+            reason = _redundancies(scaled, base_names, (column / norm)[:, None])[0]
+            if new_part > RANK_TOLERANCE:
+                reason = f"{WEAK}: nearly {reason} (new part {new_part:.1e} of its column, below {EFFECT_NEW_PART:g})"
+            fixed.append((name, reason + " at the design point"))
             continue
         basis = np.column_stack([basis, rest / np.linalg.norm(rest)])
         scaled = np.column_stack([scaled, column / norm])

@@ -10,7 +10,7 @@ import pytest
 from conftest import ROOT, SPECS, random_configurations
 from round_trip import round_trip
 
-from armcal.identify.identifiability import RANK_TOLERANCE, analyse, extend
+from armcal.identify.identifiability import EFFECT_NEW_PART, RANK_TOLERANCE, analyse, extend
 from armcal.identify.lm import solve
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.params import ParameterInfo, ParameterSet
@@ -132,9 +132,18 @@ def test_an_effect_never_frees_a_geometric_parameter_and_is_held_where_the_geome
     reasons = dict(added.fixed)
     assert reasons["e1"] == "redundant with j1.theta at the design point"
     assert reasons["j2.theta"] == "redundant with j1.theta"  # still held: the effect did not free it
-    # a column that keeps more than the tolerance of its norm off the base is kept
-    J[:, 2] = 3 * a + 1e3 * RANK_TOLERANCE * np.linalg.norm(a) * b / np.linalg.norm(b)
+    # a column that keeps more than EFFECT_NEW_PART of its norm off the base is kept
+    unit_b = b - a * (a @ b) / (a @ a)
+    unit_a, unit_b = a / np.linalg.norm(a), unit_b / np.linalg.norm(unit_b)
+    J[:, 2] = np.sqrt(1 - 4 * EFFECT_NEW_PART**2) * unit_a + 2 * EFFECT_NEW_PART * unit_b  # new part 2 EFFECT_NEW_PART
     assert "e1" in extend(design, J, parameters, ["e1"]).base
+    # one that keeps more than the rank tolerance but less than EFFECT_NEW_PART is held as weakly identifiable:
+    # its std would be over 1000 times what an independent column gives it (issue 29: a fit sliding along it)
+    J[:, 2] = np.sqrt(1 - 1e-10) * unit_a + 1e-5 * unit_b  # new part 1e-5
+    held = extend(design, J, parameters, ["e1"])
+    assert "e1" not in held.base
+    assert dict(held.fixed)["e1"] == ("weakly identifiable: nearly redundant with j1.theta (new part 1.0e-05 of its "
+                                      "column, below 0.001) at the design point")
 
 
 def _rosenbrock(x):

@@ -150,7 +150,8 @@ def _parse(path: Path, spec: Spec, device, cols: Layout, header: list[str], rows
                 text[column][r] = raw
                 if column in names and raw not in names[column]:
                     allowed = ", ".join(sorted(n for n in names[column] if n)) or "none"
-                    problems.add(line, index[column] + 1, column, f"not a known {column} (the spec's: {allowed})")
+                    known = "one of" if column in device.vocabulary_columns else "the spec's"
+                    problems.add(line, index[column] + 1, column, f"not a known {column} ({known}: {allowed})")
             elif raw == "":
                 if column in cols.required and not (column.startswith("q") and not on_robot):
                     problems.add(line, index[column] + 1, column, "empty value")

@@ -88,6 +88,7 @@ class DeviceModel(ABC):
         return {}
 
     off_robot_targets: tuple[str, ...] = ()  # names in a target column that are not on the robot (no joint values)
+    vocabulary_columns: tuple[str, ...] = ()  # key columns whose values are armcal's words, not names the spec gives
 
     # Its set-ups: a station with a frame of its own (a tracker before a robot set up anew at each)
     def station(self, key: Key) -> str | None:

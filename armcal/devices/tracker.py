@@ -175,6 +175,8 @@ class TrackerModel(DeviceModel):
     def reading_columns(self, header: list[str]) -> tuple[dict[str, str], dict[str, str]]:
         return {c.name: c.kind for c in self.channels(())}, {"use": "text"}
 
+    vocabulary_columns = ("use",)
+
     def key_names(self, robot) -> dict[str, set[str]]:
         """Targets as the spec names them; any station (held-out data may name new ones); use: register or evaluate."""
         return {**super().key_names(robot), "use": {"", *USES}}

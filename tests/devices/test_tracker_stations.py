@@ -130,6 +130,17 @@ def test_a_calibration_station_the_spec_does_not_declare_is_a_located_error(tmp_
     assert "calibration.csv" in result.stderr and "'s9' is not one of device.stations" in result.stderr
 
 
+def test_a_use_that_is_neither_register_nor_evaluate_is_a_located_error(tmp_path):
+    info = write_stationed_campaign(tmp_path, seed=8, errors={}, poses=20, register=3, evaluate=5)
+    path = tmp_path / "validation.csv"
+    lines = path.read_text().splitlines()
+    lines[1] = lines[1].removesuffix("register") + "registre"
+    path.write_text("\n".join(lines) + "\n")
+    result = _armcal_run(info["spec"])
+    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
+    assert "validation.csv:2" in result.stderr and "use: not a known use (one of: evaluate, register)" in result.stderr
+
+
 def test_a_moved_instrument_at_no_station_is_re_registered_from_its_register_rows(tmp_path):
     info = write_stationed_campaign(tmp_path, seed=9, errors=ERRORS, poses=40, register=8, evaluate=20)
     path = tmp_path / "validation.csv"

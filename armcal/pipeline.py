@@ -8,7 +8,7 @@ from pathlib import Path
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model, readings_mode
-from armcal.errors import Issue, SpecError, UserError
+from armcal.errors import Issue, SpecError, UserError, shown_value
 from armcal.diagnose.calibration import identify_and_diagnose
 from armcal.evaluate.evidence import evidence
 from armcal.evaluate.grid import evaluation_tasks
@@ -117,14 +117,22 @@ def check_readable(device, data) -> None:
 
 
 def check_stations(device, calibration) -> None:
-    """Every station the calibration data name has its frame in the spec (held-out data may name new ones)."""
+    """Every station the calibration data name has its frame in the spec (held-out data may name new ones), and every
+    declared one has calibration readings (else its frame would be the spec's guess, never fitted)."""
     declared = device.stations()
+    named = {device.station(key) for key in calibration.keys}
+    unseen = [name for name in declared if name not in named]
+    if unseen:
+        raise SpecError([Issue(calibration.source, None, None, "station",
+                               f"device.stations declares {', '.join(shown_value(n) for n in unseen[:20])}, but no reading "
+                               "here is at it: its frame could not be fitted; remove it from device.stations (held-out "
+                               "data re-register a station the spec does not declare, from their rows marked use: register)")])
     problems = [(int(line), name) for key, line in zip(calibration.keys, calibration.rows)
                 if (name := device.station(key)) is not None and name not in declared]
     if problems:
         known = ", ".join(declared) or "none"
         raise SpecError([Issue(calibration.source, line, None, "station",
-                               f"station {name!r} is not one of device.stations (the spec's: {known}); declare it there "
+                               f"station {shown_value(name)} is not one of device.stations (the spec's: {known}); declare it there "
                                "(only held-out data may name new stations, re-registered from their rows marked use: register)")
                          for line, name in problems[:20]])
 

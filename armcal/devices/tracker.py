@@ -177,6 +177,10 @@ class TrackerModel(DeviceModel):
 
     vocabulary_columns = ("use",)
 
+    def base_frame_free(self, free: set[str]) -> bool:
+        """A free robot_base, or a free frame of any station: either identifies the placement with the robot."""
+        return super().base_frame_free(free) or any(name.startswith("station.") for name in free)
+
     def key_names(self, robot) -> dict[str, set[str]]:
         """Targets as the spec names them; any station (held-out data may name new ones); use: register or evaluate."""
         return {**super().key_names(robot), "use": {"", *USES}}

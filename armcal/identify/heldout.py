@@ -20,20 +20,22 @@ model, (2.32)) is set anew, so the held-out error still judges the robot model a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel
 from armcal.effects.measurement import EffectSet
-from armcal.errors import UserError
+from armcal.errors import UserError, shown_value
 from armcal.identify.problem import Problem, Residual, build_problem
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import POSE_FIELDS
 
 FRAME = tuple(f"robot_base.{f}" for f in POSE_FIELDS)
+FRAME_PREFIXES = ("robot_base.", "station.")  # an instrument-to-base transform's parameters: the one, or a station's
 ITERATIONS = 20  # Gauss-Newton steps of a station's frame fit (from Kabsch it converges in two or three)
+FLAT = 1e-6  # s_min / s_max of the frame's scaled derivative below which register points lie on one line
 STEP_TOLERANCE = 1e-10  # mm or rad: a step this small ends the frame fit
 
 
@@ -47,9 +49,12 @@ class MovedInstrument(Problem):
         return Problem.evaluate(self, self.registered(theta), columns, out)
 
     def registered(self, theta: np.ndarray) -> np.ndarray:
-        """theta with the instrument-to-base transform registered to these data (the instrument's registration,
-        every component of it)."""
-        return self.device.registered(np.array(theta, dtype=float), self.parameters.names, set(FRAME), self.kinematics, self.data)
+        """theta with every instrument-to-base transform of these data (robot_base and each station's) registered to
+        them, every component of it."""
+        frames = {n for n in self.parameters.names if n.startswith(FRAME_PREFIXES)}
+        theta = np.array(theta, dtype=float)
+        registered = self.device.registered(theta, self.parameters.names, frames, self.kinematics, self.data)
+        return theta if registered is None else registered
 
 
 @dataclass(frozen=True)
@@ -145,15 +150,15 @@ def _new_stations(kinematics: KinematicModel, device: DeviceModel, data: Measure
     for moving, name, rows in parts:
         if moving:
             registering = _placed(device, data.subset(rows_at(name, True)))
-            _check_registration(data, name, registering)
+            registration = build_problem(kinematics, device, registering, effects) if len(registering) >= 3 else None
+            _check_registration(data, name, registering, registration)
         if not len(rows):
             continue
         problem = build_problem(kinematics, device, _placed(device, data.subset(rows)) if moving else data.subset(rows), effects)
         problems.append((rows, problem))
         size = len(problem.residuals.sigma)
         if moving:
-            stations.append(Station(first, first + size, range(block, block + len(problem.blocks)),
-                                    build_problem(kinematics, device, registering, effects), registering))
+            stations.append(Station(first, first + size, range(block, block + len(problem.blocks)), registration, registering))
         first, block = first + size, block + len(problem.blocks)
     if not problems:
         raise UserError(f"{data.source}: every row is marked use: register; mark the readings to predict use: evaluate (or leave use empty)")
@@ -172,18 +177,27 @@ def _new_stations(kinematics: KinematicModel, device: DeviceModel, data: Measure
 
 def _placed(device: DeviceModel, data: Measurements) -> Measurements:
     """The same samples read in the instrument's one placement (robot_base), the frame a new station is fitted as."""
-    return Measurements(tuple(device.placed(k) for k in data.keys), data.q, data.readings, data.extras, data.rows, data.source, data.sample, data.register)
+    return replace(data, keys=tuple(device.placed(k) for k in data.keys))
 
 
-def _check_registration(data: Measurements, name: str | None, registering: Measurements) -> None:
-    """A frame is fixed by 3 or more registered points not on one line."""
-    points = np.stack([registering.readings[c] for c in "xyz"], axis=1) if len(registering) else np.zeros((0, 3))
-    spread = np.linalg.svd(points - points.mean(axis=0), compute_uv=False) if len(points) >= 3 else np.zeros(3)
-    if len(points) < 3 or spread[1] <= 1e-6 * spread[0]:
-        lines = ", ".join(str(int(line)) for line in registering.rows) if len(registering) else "none"
-        which = f"held-out station {name!r} is not in the calibration data" if name is not None else "the instrument moved (data.instrument_moved)"
+def _check_registration(data: Measurements, name: str | None, registering: Measurements, registration: Problem | None) -> None:
+    """A frame is fixed by 3 or more registered points not on one line: the robot's predicted points (at the nominal
+    values), since a line the model puts them on leaves the rotation about it to the noise. Seen in the column-scaled
+    derivative of their readings by the frame's 6 parameters: a singular value below FLAT of the largest."""
+    count = len(registering)
+    on_line = False
+    if registration is not None:
+        frame = np.array([registration.parameters.index(n) for n in FRAME])
+        _, J = registration.evaluate(registration.parameters.nominal, frame)
+        s = np.linalg.svd(J / np.maximum(np.linalg.norm(J, axis=0), 1e-300), compute_uv=False)
+        on_line = s[-1] <= FLAT * s[0]
+    if count < 3 or on_line:
+        lines = ", ".join(str(int(line)) for line in registering.rows[:20]) if count else "none"
+        lines += ", ..." if count > 20 else ""
+        which = (f"held-out station {shown_value(name)} is not in the calibration data" if name is not None
+                 else "the instrument moved (data.instrument_moved)")
         raise UserError(
             f"{data.source}: {which}, so its frame is re-registered from its "
-            f"rows marked use: register, and it has {len(points)} (lines: {lines}){' on one line' if len(points) >= 3 else ''}; "
+            f"rows marked use: register, and it has {count} (lines: {lines}){' on one line' if count >= 3 else ''}; "
             "mark at least 3 readings of points not on one line as use: register"
         )

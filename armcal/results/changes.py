@@ -72,12 +72,13 @@ class Basis:
     def partners(self, name: str) -> set[str]:
         """The parameters ``name`` shares a redundancy with here: those its held reason names ("redundant with A, B"),
         and those an identified ``name`` is correlated with."""
-        reason = self.reasons.get(name, "")
-        named = reason.removeprefix(REDUNDANT).split(" at the design point")[0].split(", ") if reason.startswith(REDUNDANT) else []
+        reason = self.reasons.get(name, "").removeprefix(NEARLY)
+        named = reason.removeprefix(REDUNDANT).split(" at the design point")[0].split(" (new part")[0].split(", ") if reason.startswith(REDUNDANT) else []
         return {*named, *(b if a == name else a for a, b, _ in self.correlated if name in (a, b))}
 
 
 REDUNDANT = "redundant with "  # identify/identifiability.py's reason for a parameter the base set holds
+NEARLY = "weakly identifiable: nearly "  # its start for an effect parameter held as nearly redundant (extend)
 NO_BASIS = Basis({})  # a calibrated spec: its base set is not written
 
 

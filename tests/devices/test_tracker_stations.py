@@ -154,6 +154,29 @@ def test_a_moved_instrument_at_no_station_is_re_registered_from_its_register_row
     assert results.held_out_check.verdict == "consistent", results.held_out_check
 
 
+def test_a_moved_instrument_at_declared_stations_re_registers_each_of_their_frames(tmp_path):
+    """instrument_moved without a use column: every frame the held-out rows are at (here the declared s1 and s2, which
+    truly stand where n1 and n2 do) is registered anew from all its rows (Kabsch), none kept from the calibration."""
+    info = write_stationed_campaign(tmp_path, seed=11, errors=ERRORS, poses=40, register=8, evaluate=20)
+    path = tmp_path / "validation.csv"
+    lines = [line.rsplit(",", 1)[0] for line in path.read_text().splitlines()]  # the use column dropped
+    path.write_text("\n".join(line.replace(",smr,n1", ",smr,s1").replace(",smr,n2", ",smr,s2") for line in lines) + "\n")
+    spec = info["spec"]
+    spec.write_text(spec.read_text().replace("validation: validation.csv}", "validation: validation.csv, instrument_moved: true}"))
+    results = run(spec, tmp_path / "out", pdf=False).results
+    assert results.residuals.validation.after.n == 2 * 28 * 3
+    assert results.residuals.validation.after.rms < 3 * 0.02  # mm: at the noise, not the metres between the frames
+
+
+def test_a_declared_station_without_calibration_readings_is_refused(tmp_path):
+    info = write_stationed_campaign(tmp_path, seed=12, errors={}, poses=20, register=3, evaluate=5)
+    path = tmp_path / "calibration.csv"
+    path.write_text("\n".join(line for line in path.read_text().splitlines() if ",smr,s3," not in line) + "\n")
+    result = _armcal_run(info["spec"])
+    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
+    assert "calibration.csv" in result.stderr and "device.stations declares 's3', but no reading here is at it" in result.stderr
+
+
 def test_simulate_reads_every_pose_at_every_declared_station(tmp_path):
     info = write_stationed_campaign(tmp_path, seed=10, errors={}, poses=20, register=3, evaluate=5)
     spec = info["spec"]

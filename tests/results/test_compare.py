@@ -152,3 +152,13 @@ def test_a_results_file_that_contradicts_itself_is_not_read(tmp_path, edit, phra
     done = armcal_cli("compare", tmp_path / "a.json", tmp_path / "b.json")
     assert done.returncode == 1 and "Traceback" not in done.stderr
     assert f"{tmp_path / 'b.json'}: not a results.json as armcal writes it" in done.stderr and phrase in done.stderr
+
+
+def test_an_effect_held_as_nearly_redundant_names_its_partners():
+    """identifiability.extend's reason for an effect parameter held as weakly identifiable names the base parameters
+    that nearly absorb it: compare treats them as its partners, not comparable, like an exact redundancy's."""
+    from armcal.results.changes import Basis
+
+    reason = ("weakly identifiable: nearly redundant with joint_compliance.j3.my4, j3.a (new part 7.4e-05 of its "
+              "column, below 0.001) at the design point")
+    assert Basis({"joint_compliance.j3.my5": reason}).partners("joint_compliance.j3.my5") == {"joint_compliance.j3.my4", "j3.a"}

@@ -75,7 +75,7 @@ def gen3(tmp_path_factory):
     stand_in = "tool_point: {link: 6, x: {value: 50, vary: false}, y: {value: 0, vary: false}"  # 50 mm off joint 6's axis
     assert stand_in in text
     text = text.replace(stand_in, "smr: {link: 6, x: {value: 40, vary: false}, y: {value: -25, vary: false}")
-    text = text.replace("targets: [tool_point]", "targets: [smr]").replace("  noise: 0.01", "  robot_base: {x: 2000, y: 0, z: 0, rz: 0, ry: 0, rx: 0}\n  noise: 0.01")
+    text = text.replace("targets: [tool_point]", "targets: [smr]").replace("robot_base: {x: 0, y: 0, z: 0, rz: 0, ry: 0, rx: 0}", "robot_base: {x: 2000, y: 0, z: 0, rz: 0, ry: 0, rx: 0}")
     text += "validation: {type: poses, count: 60}\ndata: {calibration: calibration.csv, validation: validation.csv}\n"
     truth = _truth(np.random.default_rng(5))
     first = _campaign(root / "first", text, truth, seed=51)

@@ -68,6 +68,10 @@ class Tracker(DeviceSpec):
     def noise_fields(self) -> tuple[str, ...]:
         return ("noise", "orientation_noise") if self.orientation else ("noise",)
 
+    def base_frame_free(self, free: set[str]) -> bool:
+        """A free robot_base, or a free frame of any station: either identifies the placement with the robot."""
+        return super().base_frame_free(free) or any(name.startswith("station.") for name in free)
+
     procedures: ClassVar[tuple[str, ...]] = ("poses", "circle_point")
     instrument_effects: ClassVar[tuple[str, ...]] = ("sensor_scale",)
     fixes_positions: ClassVar[bool] = True
@@ -176,10 +180,6 @@ class TrackerModel(DeviceModel):
         return {c.name: c.kind for c in self.channels(())}, {"use": "text"}
 
     vocabulary_columns = ("use",)
-
-    def base_frame_free(self, free: set[str]) -> bool:
-        """A free robot_base, or a free frame of any station: either identifies the placement with the robot."""
-        return super().base_frame_free(free) or any(name.startswith("station.") for name in free)
 
     def key_names(self, robot) -> dict[str, set[str]]:
         """Targets as the spec names them; any station (held-out data may name new ones); use: register or evaluate."""

@@ -196,3 +196,12 @@ def test_simulate_reads_every_pose_at_every_declared_station(tmp_path):
     assert [r[joints] for r in rows[1:21]] == [r[joints] for r in rows[21:41]] == [r[joints] for r in rows[41:61]]
     results = run(spec, tmp_path / "out", pdf=False).results
     assert results.noise_check.verdict == "consistent"
+
+
+def test_free_station_frames_leave_the_robot_base_frame_free(tmp_path):
+    """With a frame per station identified, the robot's base is known to the tasks only up to a rigid motion, as with
+    a free robot_base: their frame is taught (evaluate/grid.py), not taken from the unidentified base."""
+    from armcal.spec import load_spec
+
+    device = load_spec(write_stationed_campaign(tmp_path, seed=13, errors={}, poses=5, register=3, evaluate=2)["spec"]).spec.device
+    assert device.base_frame_free({"station.s1.x", "j2.a"}) and not device.base_frame_free({"j2.a", "smr.x"})

@@ -18,7 +18,7 @@ FLEET = [ROOT / "examples" / "goswami_ballbar" / "spec.yaml", ROOT / "examples" 
 @pytest.fixture(scope="module")
 def cluster():
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None) as local:
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=":0") as local:
         yield local
 
 

@@ -90,9 +90,12 @@ def _block_diagonal(blocks: list[np.ndarray]) -> np.ndarray:
     return out
 
 
-def _armcal_run(spec):
+def _refused(spec) -> str:
+    """`armcal run` on ``spec``, which must stop with exit 1 and a message, no traceback: its stderr."""
     cmd = [sys.executable, "-m", "armcal", "run", str(spec), "--no-pdf", "--out", str(spec.parent / "out")]
-    return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+    result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
+    return result.stderr
 
 
 @pytest.mark.parametrize("keep, said", [(2, "has 2 (lines: 2, 3)"), (0, "has 0 (lines: none)")])
@@ -103,9 +106,7 @@ def test_a_new_station_without_three_registration_rows_is_one_clear_user_error(t
     for i in marked[keep:]:
         lines[i] = lines[i].removesuffix("register") + "evaluate"
     (tmp_path / "validation.csv").write_text("\n".join(lines) + "\n")
-    result = _armcal_run(info["spec"])
-    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
-    message = result.stderr
+    message = _refused(info["spec"])
     assert "validation.csv" in message and "station 'n1'" in message and said in message and "at least 3" in message
 
 
@@ -116,18 +117,16 @@ def test_registration_rows_on_one_line_are_refused(tmp_path):
     for i in (2, 3):  # the same pose and reading three times: one point
         lines[i] = ",".join([str(i), *first[1:]])
     (tmp_path / "validation.csv").write_text("\n".join(lines) + "\n")
-    result = _armcal_run(info["spec"])
-    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
-    assert "station 'n1'" in result.stderr and "on one line" in result.stderr
+    stderr = _refused(info["spec"])
+    assert "station 'n1'" in stderr and "on one line" in stderr
 
 
 def test_a_calibration_station_the_spec_does_not_declare_is_a_located_error(tmp_path):
     info = write_stationed_campaign(tmp_path, seed=8, errors={}, poses=20, register=3, evaluate=5)
     path = tmp_path / "calibration.csv"
     path.write_text(path.read_text().replace(",smr,s3,", ",smr,s9,", 1))
-    result = _armcal_run(info["spec"])
-    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
-    assert "calibration.csv" in result.stderr and "'s9' is not one of device.stations" in result.stderr
+    stderr = _refused(info["spec"])
+    assert "calibration.csv" in stderr and "'s9' is not one of device.stations" in stderr
 
 
 def test_a_use_that_is_neither_register_nor_evaluate_is_a_located_error(tmp_path):
@@ -136,9 +135,8 @@ def test_a_use_that_is_neither_register_nor_evaluate_is_a_located_error(tmp_path
     lines = path.read_text().splitlines()
     lines[1] = lines[1].removesuffix("register") + "registre"
     path.write_text("\n".join(lines) + "\n")
-    result = _armcal_run(info["spec"])
-    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
-    assert "validation.csv:2" in result.stderr and "use: not a known use (one of: evaluate, register)" in result.stderr
+    stderr = _refused(info["spec"])
+    assert "validation.csv:2" in stderr and "use: not a known use (one of: evaluate, register)" in stderr
 
 
 def test_a_moved_instrument_at_no_station_is_re_registered_from_its_register_rows(tmp_path):
@@ -172,9 +170,8 @@ def test_a_declared_station_without_calibration_readings_is_refused(tmp_path):
     info = write_stationed_campaign(tmp_path, seed=12, errors={}, poses=20, register=3, evaluate=5)
     path = tmp_path / "calibration.csv"
     path.write_text("\n".join(line for line in path.read_text().splitlines() if ",smr,s3," not in line) + "\n")
-    result = _armcal_run(info["spec"])
-    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
-    assert "calibration.csv" in result.stderr and "device.stations declares 's3', but no reading here is at it" in result.stderr
+    stderr = _refused(info["spec"])
+    assert "calibration.csv" in stderr and "device.stations declares 's3', but no reading here is at it" in stderr
 
 
 def test_simulate_reads_every_pose_at_every_declared_station(tmp_path):

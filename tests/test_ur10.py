@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import ROOT, SHARED_DATA, SPECS
 from rigid_fit import kabsch
-from round_trip import round_trip
+from round_trip import recorded_fits, round_trip
 
 from armcal.export.compensation import compensate
 from armcal.kinematics.compiler import compile_robot
@@ -37,17 +37,20 @@ def _spec(tmp_path, data: str) -> None:
 
 @pytest.fixture(scope="module")
 def series_c_on_b(tmp_path_factory):
-    """One `armcal run` calibrating on Series C, B held out (its folder and results): the tests below share it."""
+    """One `armcal run` calibrating on Series C, B held out (its folder, results and fitted model): the tests below
+    share it. No PDF: the tests read certificate.html."""
     folder = tmp_path_factory.mktemp("ur10_c_b")
     _import(folder, "C", "C.csv")
     _import(folder, "B", "B.csv")
     _spec(folder, "data: {calibration: C.csv, validation: B.csv}\n")
-    return folder, run(folder / "spec.yaml", folder / "out").results
+    with recorded_fits() as fits:
+        results = run(folder / "spec.yaml", folder / "out", pdf=False).results
+    return folder, results, fits[-1]
 
 
 def test_fit_series_c_validate_on_series_b(series_c_on_b):
     """Same tracker set-up for B and C: the calibrated model predicts B several times better."""
-    tmp_path, results = series_c_on_b
+    tmp_path, results, _ = series_c_on_b
     assert results.status == "converged" and results.solver.iterations < 20
     # Hayati's beta on the three parallel axes: a well-conditioned problem, no d sliding along the axes
     assert results.identifiability.condition_number < 1e3
@@ -142,15 +145,15 @@ def test_validate_on_series_d_with_the_moved_tracker(tmp_path):
     _import(tmp_path, "C", "C.csv")
     _import(tmp_path, "D", "D.csv")
     _spec(tmp_path, "data: {calibration: C.csv, validation: D.csv, instrument_moved: true}\ndiagnose: {enabled: false}\n")
-    results = run(tmp_path / "spec.yaml", tmp_path / "out").results
+    results = run(tmp_path / "spec.yaml", tmp_path / "out", pdf=False).results
     validation = results.residuals.validation
     assert validation.before.rms < 1.5 and validation.after.rms < validation.before.rms  # registered, not metres off
 
 
 def test_the_calibrated_spec_reproduces_the_fit(series_c_on_b):
     """calibrated.yaml carries every value the fitted model uses, the tracker's registration included."""
-    tmp_path, results = series_c_on_b
-    first, _ = round_trip(tmp_path / "spec.yaml", tmp_path / "out", first=results)
+    tmp_path, results, fitted = series_c_on_b
+    first, _ = round_trip(tmp_path / "spec.yaml", tmp_path / "out", first=results, fitted=fitted)
     held = {f.name: f.reason for f in first.identifiability.fixed}
     assert held["shoulder_pan.theta"] == "redundant with robot_base.rz"  # the tracker's pose carries joint 1's zero
     calibrated = load_spec(tmp_path / "out" / "calibrated.yaml").spec

@@ -11,6 +11,11 @@ effect of 2-5 noise sigmas. armcal fits and diagnoses each one as `armcal run` d
 Oracle for the fit: scipy's least_squares on the same free set from the same start
 reaches the same cost (to 1e-6 relative); held parameters never move; the
 calibrated.yaml written from the fit predicts every reading as the fit does.
+
+The ball-bar campaigns run with ARMCAL_COMPILE=off (CasADi's virtual machine, as tests/test_zoo.py):
+each candidate effect is a problem of another structure, whose C (0.5-1 MB) gcc compiles in 4-9 s on
+a cold cache, more than the virtual machine spends evaluating it here; what is compiled and cached is
+tested in tests/identify/test_first_run.py and tests/test_process_safety.py.
 """
 
 import math
@@ -113,7 +118,9 @@ def campaign_outcome(folder, robot: str, device: str, k: int) -> dict:
 @pytest.mark.parametrize("count", [DEFAULT, pytest.param(PER_PAIR, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("robot", ["puma560", "ur_like"])
 @pytest.mark.parametrize("device", ["tracker", "ballbar"])
-def test_every_campaign_converges_to_scipys_minimum(tmp_path, robot, device, count):
+def test_every_campaign_converges_to_scipys_minimum(tmp_path, monkeypatch, robot, device, count):
+    if device == "ballbar":
+        monkeypatch.setenv("ARMCAL_COMPILE", "off")
     outcomes = [campaign_outcome(tmp_path / f"c{k}", robot, device, k) for k in range(count)]
     failed = [(k, o["reason"]) for k, o in enumerate(outcomes) if not o["converged"]]
     assert not failed

@@ -14,6 +14,7 @@ import pytest
 from conftest import EXAMPLE_DATA, ROOT, armcal_cli, copy_example
 
 from armcal.output_set import MANIFEST
+from armcal.pipeline import run
 
 EXAMPLE = ROOT / "examples" / "theodolite"
 
@@ -147,8 +148,10 @@ def _kill_when(job: subprocess.Popen, moment) -> None:
 
 
 def test_a_run_killed_at_any_moment_leaves_one_complete_set(workspace):
+    """The killed runs are `armcal run` processes; the runs before and after them are made in this process
+    (pipeline.run, what `armcal run` calls: the same output set, lock and staging, without importing armcal anew)."""
     out = workspace / "out"
-    assert armcal("run", workspace / "spec.yaml", "--out", out, "--no-pdf").returncode == 0
+    run(workspace / "spec.yaml", out, pdf=False)
     one_complete_set(out)
     other_input(workspace)
     staging = lambda: [p for p in workspace.glob(".out.new-*") if p.is_dir() and p not in left]  # noqa: E731 - this run's
@@ -165,7 +168,7 @@ def test_a_run_killed_at_any_moment_leaves_one_complete_set(workspace):
         _kill_when(job, moment)
         assert one_complete_set(out)  # the previous set or the new one, whole
         other_input(workspace)
-    assert armcal("run", workspace / "spec.yaml", "--out", out, "--no-pdf", "--force").returncode == 0
+    run(workspace / "spec.yaml", out, force=True, pdf=False)  # raises when a killed run left it unable to write
     one_complete_set(out)
     assert not [p for p in workspace.iterdir() if p.name.startswith(".out.")]  # no half-written set, no lock left
 

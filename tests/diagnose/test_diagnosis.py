@@ -82,8 +82,14 @@ CASES = [
     (TRACKER, EffectSpec("thermal_drift")),
     (SONIC, EffectSpec("sensor_scale")),  # the fixed microphone geometry is the length reference
     (SONIC, EffectSpec("range_bias", microphone="B")),
-    (BALLBAR, EffectSpec("pivot_offset", pivot="chuck2")),
+    (BALLBAR, PIVOT := EffectSpec("pivot_offset", pivot="chuck2")),
 ]
+
+
+@pytest.fixture(scope="module")
+def hidden_pivot(tmp_path_factory):
+    """The diagnosis of the ball-bar campaign with chuck2's pivot moved: two tests below ask different things of it."""
+    return _hidden(tmp_path_factory.mktemp("pivot"), BALLBAR, PIVOT)
 
 
 def _floor(diagnosis) -> float:
@@ -94,18 +100,18 @@ def _floor(diagnosis) -> float:
 
 
 @pytest.mark.parametrize("base, effect", CASES, ids=[c[1].id for c in CASES])
-def test_each_hidden_effect_is_found(tmp_path, base, effect):
+def test_each_hidden_effect_is_found(tmp_path, request, base, effect):
     """Hidden at three noise sigmas: named (type, and joint or microphone), and the refit reaches the noise floor."""
-    diagnosis = _hidden(tmp_path, base, effect)
+    diagnosis = request.getfixturevalue("hidden_pivot") if effect is PIVOT else _hidden(tmp_path, base, effect)
     first = diagnosis.rounds[0].accepted
     assert first is not None, diagnosis.rounds[0].note
     assert (first.type, first.joint, first.microphone) == (effect.type, effect.joint, effect.microphone)
     assert _floor(diagnosis) < 1.15  # within 15 % of the noise floor
 
 
-def test_which_pivot_moved_is_reported_as_ambiguous(tmp_path):
+def test_which_pivot_moved_is_reported_as_ambiguous(hidden_pivot):
     """With the robot base free, moving one pivot is almost moving the base and the other two: the round says so."""
-    diagnosis = _hidden(tmp_path, BALLBAR, EffectSpec("pivot_offset", pivot="chuck2"))
+    diagnosis = hidden_pivot
     assert "would explain the data almost as well" in diagnosis.rounds[0].note
     assert "pivot_offset.chuck2" in diagnosis.rounds[0].note + diagnosis.rounds[0].accepted.id
 

@@ -137,7 +137,7 @@ def implausible_lines(r) -> list[str]:
     p = r.plausibility
     where = "robot.tolerance" if p.from_spec else "the default; set robot.tolerance"
     lines = [f"  implausible: {counted(len(p.implausible), 'identified robot value')} beyond {p.length:g} {p.length_unit} / "
-             f"{p.angle:g} {p.angle_unit} of nominal ({where})"]
+             f"{p.angle:g} {p.angle_unit}{'' if p.scale is None else f' / {p.scale:g} (encoder scales)'} of nominal ({where})"]
     for v in p.implausible[:IMPLAUSIBLE_SHOWN]:
         std = f", std {v.std:.3g} {v.unit}" if v.std is not None else ""
         lines.append(f"    {v.name}: {v.value:.6g} {v.unit}, {v.deviation:+.4g} {v.unit} from nominal {v.nominal:.6g}{std}: {WHY[v.why]}")

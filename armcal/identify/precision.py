@@ -11,9 +11,9 @@ its reason.
 The predicted covariance of the base parameters is (J^T J)^-1 of the weighted Jacobian at the
 design point (Goswami, Quaid & Peshkin: the covariance of the least-squares estimate; Stone
 eq. 5.23's weighting by the readings' sigmas), taken from the SVD of its triangular factor R
-(J^T J = R^T R), never by inverting J^T J. A robot value (a chain or target length or angle)
-whose predicted std exceeds its precision, robot.tolerance / PRECISION_SHARE (1 mm and 0.2 deg
-by default), is held; one at a time, the worst first (its std over its precision), since holding
+(J^T J = R^T R), never by inverting J^T J. A robot value (a chain or target length or angle, an
+encoder scale) whose predicted std exceeds its precision, robot.tolerance / PRECISION_SHARE
+(1 mm, 0.2 deg and 0.001 by default), is held; one at a time, the worst first (its std over its precision), since holding
 one makes the others of its near-redundant group determined. The parameters of such a group have
 nearly equal stds (they differ by the group's small new part, which the poses decide), so ratios within
 TIE of the worst count as equal and the one latest in the spec is held: two campaigns of one robot hold
@@ -66,6 +66,8 @@ def _reason(entry, std: float, precision: float) -> str:
     if entry.kind == "angle":
         shown, unit = math.degrees(std), "deg"
         limit = math.degrees(precision)
+    elif entry.kind == "scale":
+        shown, unit, limit = std, "(ratio)", precision
     else:
         shown, unit, limit = std, "mm", precision
     return f"{WEAK}: predicted std {shown:.3g} {unit} > {limit:.3g} {unit} (robot.tolerance / {PRECISION_SHARE:g})"

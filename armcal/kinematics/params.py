@@ -126,5 +126,5 @@ def parameter_set(robot: RobotBase) -> ParameterSet:
     for name, target in robot.targets.items():
         entries += [replace(e, role="target") for e in pose_entries(name, target)]
     tolerance = robot.tolerance or Tolerance()
-    plausible = {"length": tolerance.length, "angle": tolerance.angle}
+    plausible = {"length": tolerance.length, "angle": tolerance.angle, "scale": tolerance.scale}
     return ParameterSet(tuple(replace(e, tolerance=plausible.get(e.kind)) for e in entries))

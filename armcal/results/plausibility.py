@@ -7,7 +7,8 @@ tool, targets: kinematics/params.parameter_set gives them their tolerance) is co
 taken the short way round) is implausible, and the terminal, results.json and the certificate say so, with why:
 a value many of its stds from nominal was put there by the data (check the nominal value: the drawing, the
 robot library, an earlier calibration); one whose std is itself of the tolerance's size was chosen by a flat
-direction. Encoder scales (kind 1) and the instrument's parameters are not judged.
+direction. Encoder scales (kind 1) are judged against `robot.tolerance.scale` (default 0.01); the instrument's
+parameters are not judged.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from armcal.spec.document import Spec
 from armcal.spec.robot import Tolerance
 from armcal.units import from_internal
 
-JUDGED = ("length", "angle")
+JUDGED = ("length", "angle", "scale")
 DETERMINED = 5.0  # deviation over std beyond which the data, not a flat direction, put the value there
 WHY = {
     "nominal": "the data put it there (many stds from nominal): check the nominal value",
@@ -39,7 +40,7 @@ def plausibility(spec: Spec, entries, values: np.ndarray, std: np.ndarray, ident
     """results.json's `plausibility`: the tolerances in the spec's units (and whether the spec gave them) and the
     identified robot values beyond them."""
     tolerance = spec.robot.tolerance or Tolerance()
-    limit = {"length": tolerance.length, "angle": tolerance.angle}
+    limit = {"length": tolerance.length, "angle": tolerance.angle, "scale": tolerance.scale}
     unit = {kind: spec.robot.units.of(kind) for kind in JUDGED}
     shown = lambda value, kind: from_internal(float(value), kind, unit[kind])  # noqa: E731
     implausible = []
@@ -67,6 +68,7 @@ def plausibility(spec: Spec, entries, values: np.ndarray, std: np.ndarray, ident
         "length_unit": unit["length"],
         "angle": shown(limit["angle"], "angle"),
         "angle_unit": unit["angle"],
+        "scale": limit["scale"],
         "from_spec": spec.robot.tolerance is not None,
         "implausible": implausible,
     }

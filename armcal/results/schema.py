@@ -114,7 +114,8 @@ class Plausibility(_Frozen):
     length_unit: str
     angle: float  # tolerance, in angle_unit
     angle_unit: str
-    from_spec: bool  # false: the defaults (10 mm, 2 deg), the spec gave no robot.tolerance
+    scale: float | None = None  # tolerance of encoder scales k, a ratio; null in results of an older armcal
+    from_spec: bool  # false: the defaults (10 mm, 2 deg, 0.01), the spec gave no robot.tolerance
     implausible: list[ImplausibleValue]
 
 

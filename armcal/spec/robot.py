@@ -183,6 +183,11 @@ class Tolerance(SpecModel):
 
     length: Length = Field("10 mm", validate_default=True, gt=0.0, description="plausible deviation of an identified length from its nominal value")
     angle: Angle = Field("2 deg", validate_default=True, gt=0.0, description="plausible deviation of an identified angle from its nominal value")
+    scale: float = Field(
+        0.01, gt=0.0, lt=1.0,
+        description="plausible deviation of an identified encoder scale k (six_parameter joints) from its nominal value, "
+        "a ratio: 0.01 is 1 %, eight times the largest deviation of Goswami et al.'s identified encoder factors (0.998821, Table II)",
+    )
 
 
 class UrdfLink(SpecModel):
@@ -217,8 +222,8 @@ class RobotBase(SpecModel):
     targets: dict[str, Target] = Field({}, description="named points or frames on links: sparkers, spheres, reflectors")
     tolerance: Tolerance | None = Field(
         None,
-        description="plausible deviations of identified values from nominal (length, angle); a value beyond them is "
-        "reported as implausible. Default when not given: 10 mm and 2 deg",
+        description="plausible deviations of identified values from nominal (length, angle, encoder scale); a value beyond them is "
+        "reported as implausible. Default when not given: 10 mm, 2 deg and 0.01 (encoder scales)",
     )
     urdf: UrdfNames | None = Field(
         None,

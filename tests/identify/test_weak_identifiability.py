@@ -71,6 +71,24 @@ def test_the_worst_is_held_first():
     assert [k for k, _ in weakly_identifiable(np.linalg.qr(J, mode="r"), entries)] == order
 
 
+def test_an_encoder_scale_of_a_joint_that_barely_moves_is_held_not_its_offset():
+    """theta = theta0 + k q with q within +-0.01 deg of 30 deg: the columns of k and theta0 differ by 3e-4 of their
+    norm, so k's std (0.001 precision: robot.tolerance.scale / 10) is the worst by far; held, theta0 is determined."""
+    rng = np.random.default_rng(8)
+    J = rng.normal(size=(60, 3)) / 0.02
+    J[:, 1] *= 500.0  # d(reading)/dtheta: a 500 mm lever
+    q = np.radians(30.0 + rng.uniform(-0.01, 0.01, 60))
+    J[:, 2] = J[:, 1] * q  # d(reading)/dk = d(reading)/dtheta * q
+    entries = [_entry("j1.a", "length", 10.0), _entry("j3.theta0", "angle", np.radians(2.0)), _entry("j3.k", "scale", 0.01)]
+    std = _mp_std(J)
+    ratio = std / np.array([1.0, np.radians(0.2), 1e-3])
+    assert ratio[2] > 2 * ratio[1] > 2  # the case's margin: both weak, k the worst by far
+    held = weakly_identifiable(np.linalg.qr(J, mode="r"), entries)
+    assert [k for k, _ in held] == [2]
+    assert held[0][1].startswith(f"weakly identifiable: predicted std {std[2]:.3g} (ratio) > 0.001 (ratio)")
+    assert _mp_std(J[:, :2])[1] < np.radians(0.2) / 3  # theta0 alone is determined, with a margin
+
+
 def test_nothing_is_held_where_every_std_is_within_its_precision():
     J = np.random.default_rng(5).normal(size=(40, 4)) / 0.02
     entries = [_entry(f"j{i}.a", "length", 10.0) for i in range(4)]

@@ -51,10 +51,14 @@ def test_a_tolerance_from_the_spec_is_used_and_said():
     values[names.index("L3.x")] += 30.0  # mm
     values[names.index("L4.gamma")] += np.radians(358.5)  # 1.5 deg the short way round: plausible
     values[names.index("j2.theta0")] += np.radians(2.5)
+    values[names.index("j3.k")] += 0.02  # an encoder scale 2 % off: beyond the default 0.01
+    values[names.index("j4.k")] -= 0.005  # within it
     std = np.full(len(values), np.nan)
     found = plausibility(spec, entries, values, std, set(names))
     flagged = {v["name"]: v for v in found["implausible"]}
-    assert set(flagged) == {"L3.x", "j2.theta0"}
+    assert set(flagged) == {"L3.x", "j2.theta0", "j3.k"}
+    assert (flagged["j3.k"]["deviation"], flagged["j3.k"]["tolerance"], flagged["j3.k"]["unit"]) == pytest.approx((0.02, 0.01, "1"))
+    assert found["scale"] == 0.01
     assert flagged["j2.theta0"]["deviation"] == pytest.approx(2.5) and flagged["j2.theta0"]["std"] is None
     assert flagged["j2.theta0"]["why"] == "undetermined"  # no std: nothing says the data determined it
     std[names.index("L3.x")] = 10.0  # mm: a third of the deviation, the tolerance's size: a flat direction's doing
@@ -62,9 +66,9 @@ def test_a_tolerance_from_the_spec_is_used_and_said():
     std[names.index("L3.x")] = 1.0  # 30 stds
     assert {v["name"]: v["why"] for v in plausibility(spec, entries, values, std, set(names))["implausible"]}["L3.x"] == "nominal"
     assert flagged["L3.x"]["deviation"] == pytest.approx(3.0) and flagged["L3.x"]["tolerance"] == pytest.approx(1.0)  # cm
-    assert plausibility(spec, entries, values, std, set(names) - {"L3.x", "j2.theta0"})["implausible"] == []  # held: not judged
+    assert plausibility(spec, entries, values, std, set(names) - {"L3.x", "j2.theta0", "j3.k"})["implausible"] == []  # held: not judged
     from armcal.spec.robot import Tolerance
 
-    wide = spec.model_copy(update={"robot": spec.robot.model_copy(update={"tolerance": Tolerance(length="40 mm", angle="3 deg")})})
+    wide = spec.model_copy(update={"robot": spec.robot.model_copy(update={"tolerance": Tolerance(length="40 mm", angle="3 deg", scale=0.03)})})
     judged = plausibility(wide, parameter_set(wide.robot).entries, values, std, set(names))
-    assert judged["implausible"] == [] and judged["from_spec"] and judged["length"] == pytest.approx(4.0)  # cm
+    assert judged["implausible"] == [] and judged["from_spec"] and judged["length"] == pytest.approx(4.0) and judged["scale"] == 0.03  # cm

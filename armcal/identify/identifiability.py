@@ -101,7 +101,9 @@ def analyse(J: np.ndarray, parameters: ParameterSet, free: np.ndarray, hold_weak
     base_names = [names[c] for c in base]
     fixed += [(names[columns[k]], reason) for k, reason in zip(dependent, _redundancies(scaled[:, chosen], base_names, scaled[:, dependent]))]
     if hold_weak:
-        weak = weakly_identifiable(J[:, base], [parameters.entries[c] for c in base])
+        in_spec_order = np.argsort(base)  # the pivots' order depends on the data; a tie is broken by the spec's
+        weak = [(int(in_spec_order[k]), reason) for k, reason in
+                weakly_identifiable(J[:, base[in_spec_order]], [parameters.entries[c] for c in base[in_spec_order]])]
         fixed += [(base_names[k], reason) for k, reason in weak]
         kept = sorted(set(range(len(base))) - {k for k, _ in weak})
         chosen, base, base_names = [chosen[k] for k in kept], base[kept], [base_names[k] for k in kept]

@@ -37,7 +37,8 @@ def weakly_identifiable(R: np.ndarray, entries: list) -> list[tuple[int, str]]:
     """(position in ``entries``, reason) of the base parameters to hold, in the order they were held.
 
     ``R`` (k, len(entries)): a triangular factor of the weighted Jacobian's base columns (R^T R = J^T J);
-    ``entries``: their ParameterInfo, whose ``tolerance`` (internal unit) is None where not judged."""
+    ``entries``: their ParameterInfo in the spec's order (a tie holds the last), whose ``tolerance`` (internal unit)
+    is None where not judged."""
     precision = np.array([e.tolerance / PRECISION_SHARE if e.tolerance is not None else np.inf for e in entries])
     kept = list(range(len(entries)))
     held = []

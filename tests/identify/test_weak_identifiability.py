@@ -14,8 +14,9 @@ import mpmath
 import numpy as np
 import pytest
 
+from armcal.identify.identifiability import analyse
 from armcal.identify.precision import PRECISION_SHARE, TIE, weakly_identifiable
-from armcal.kinematics.params import ParameterInfo
+from armcal.kinematics.params import ParameterInfo, ParameterSet
 from conftest import armcal_cli
 from independent_sim import DEG, frames, pose
 
@@ -54,6 +55,25 @@ def test_the_later_of_a_near_redundant_pair_is_held_and_the_instrument_carries_w
     assert held[0][1].startswith(f"weakly identifiable: predicted std {before[2]:.3g} mm > 1 mm")
     after = _mp_std(J[:, [1, 3, 4]])
     assert np.all(after < precision / 3)  # the rest is determined, with a margin
+
+
+def test_a_tie_is_broken_by_the_spec_order_not_by_the_pivots_order():
+    """The base set's pivoted QR takes j4.a before j2.d (more of its column is new after j1.a's), yet the two are a
+    near-redundant pair whose stds tie: the weak rule holds j4.a, the later in the spec, as two campaigns of one robot
+    whose poses order the pivots differently must (issue 29 item 5: base sets coincide by a stated tie rule)."""
+    rng = np.random.default_rng(7)
+    J = rng.normal(size=(60, 4)) / 0.02
+    J[:, 1] = J[:, 3] + 0.8 * J[:, 0]  # j2.d = j4.a + 0.8 j1.a ...
+    J[:, 3] += 2e-4 * rng.normal(size=60) / 0.02  # ... but for 2e-4 of a column
+    names = ("j1.a", "j2.d", "j3.d", "j4.a")
+    parameters = ParameterSet(tuple(ParameterInfo(n, "length", 0.0, True, None, None, tolerance=10.0) for n in names))
+    std = _mp_std(J)
+    assert min(std[[1, 3]]) > 10 * 10.0 / PRECISION_SHARE and abs(std[1] / std[3] - 1) < TIE / 10  # weak, a tie
+    unit = J / np.linalg.norm(J, axis=0)
+    q = unit[:, 0]  # the first pivot (unit columns tie: the first is taken); then j4.a, beyond ALIGNED:
+    assert np.linalg.norm(unit[:, 3] - q * (q @ unit[:, 3])) > 1.1 * np.linalg.norm(unit[:, 1] - q * (q @ unit[:, 1]))
+    result = analyse(J, parameters, parameters.free)
+    assert dict(result.fixed)["j4.a"].startswith("weakly identifiable") and "j2.d" in result.base
 
 
 def test_the_worst_is_held_first():

@@ -10,7 +10,8 @@ from conftest import ROOT, TESTS
 
 from armcal.errors import UserError
 from armcal.report.context import certificate_context
-from armcal.report.render import PACKAGED, TEMPLATE, TemplateFetcher, certificate_files, render_html, write_files
+from armcal.report.pdf import TemplateFetcher
+from armcal.report.render import PACKAGED, TEMPLATE, certificate_files, render_html, write_files
 
 GOLDEN = TESTS / "data" / "golden"
 

@@ -16,7 +16,8 @@ from conftest import ROOT, TESTS
 from armcal.errors import UserError
 from armcal.report.context import certificate_context
 from armcal.report.plots import draw_plots
-from armcal.report.render import PACKAGED, TEMPLATE, TemplateFetcher, certificate_files, render_html
+from armcal.report.pdf import TemplateFetcher
+from armcal.report.render import PACKAGED, TEMPLATE, certificate_files, render_html
 
 GOLDEN = TESTS / "data" / "golden"
 OUTSIDE = Path("/etc/hostname")  # any readable file outside the folders

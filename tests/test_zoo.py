@@ -46,6 +46,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import zoo
+from scipy.stats import chi2
 from conftest import armcal_cli
 
 Z_LIMIT = 3.5
@@ -109,7 +110,7 @@ def check(campaign: dict) -> dict:
         diff = _angle_difference(p["value"], values[name]) if p["unit"] in ("deg", "rad") else p["value"] - values[name]
         z[name] = diff / p["std"] if p["std"] else float("inf")
     worst = max(z, key=lambda k: abs(z[k]))
-    report.update(max_z=abs(z[worst]), worst=worst, n_free=len(free))
+    report.update(max_z=abs(z[worst]), worst=worst, n_free=len(free), mahalanobis=mahalanobis(z, results["correlation_matrix"]))
     over = {k: round(v, 2) for k, v in z.items() if abs(v) > Z_LIMIT}
     if over:
         failures["iv"] = "; ".join(f"{k}: value {rows[k]['value']:.6g}, equivalent truth {values[k]:.6g}, std {rows[k]['std']:.3g}, "
@@ -204,6 +205,10 @@ def summary(studies: list[dict]) -> tuple[dict, list[str]]:
     changes = [s["changed"] for s in studies if "changed" in s]
     figures["v_null"] = f"{sum(not n['flagged'] and not n['count'] and n['returncode'] == 0 for n in nulls)} of {len(nulls)} flag nothing"
     figures["v_change"] = f"{sum(c['link'] in c['flagged'] for c in changes)} of {len(changes)} flag the changed link"
+    scored = [c for c in campaigns if c.get("mahalanobis") is not None]
+    distance, dof = sum(c["mahalanobis"] for c in scored), sum(c["n_free"] for c in scored)
+    figures["mahalanobis"] = (f"sum d'R^-1 d {distance:.1f} on {dof} free values over {len(scored)} campaigns: "
+                              f"ratio {distance / max(dof, 1):.3f}, chi2 p {chi2.sf(distance, dof):.3g}")
     lines = []
     for c in campaigns:
         if c["failures"]:
@@ -216,6 +221,20 @@ def summary(studies: list[dict]) -> tuple[dict, list[str]]:
             lines.append(f"seed {s['seed']} (v) {s['changed']['link']} +{s['changed']['change']:.4g} not flagged "
                          f"(z {s['changed']['z']}; flagged {s['changed']['flagged']})")
     return figures, lines
+
+
+def mahalanobis(z: dict[str, float], correlation: dict) -> float | None:
+    """d' R^-1 d of the z-scores with results.json's correlation matrix (the robot values' marginal if effects were
+    added): chi2 on the free count when the reported covariance is right, so its sum over campaigns against the summed
+    free counts says whether the stds are honest (a ratio near 1) or too small (above 1). None without a matrix, or if
+    a z is infinite (a zero std)."""
+    if not correlation:
+        return None
+    kept = [i for i, name in enumerate(correlation["parameters"]) if name in z]  # robot values (the marginal of effects)
+    d = np.array([z[correlation["parameters"][i]] for i in kept])
+    if len(kept) != len(z) or not np.all(np.isfinite(d)):
+        return None
+    return float(d @ np.linalg.solve(np.array(correlation["matrix"])[np.ix_(kept, kept)], d))
 
 
 # -------------------------------------------------------------------------------------------------- tests

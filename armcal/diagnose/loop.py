@@ -84,6 +84,7 @@ class _Context:
     def __init__(self, kinematics, device, calibration, validation, effects, fit_settings, settings, instrument_moved):
         self.kinematics, self.device, self.calibration = kinematics, device, calibration
         self.effects, self.fit_settings, self.settings = effects, fit_settings, settings
+        self.functions = {}  # the keys' compiled functions, shared by every problem of the diagnosis (build_problem)
         self.validation = None
         if validation is not None:
             self.validation = held_out(kinematics, device, validation, effects, instrument_moved)
@@ -117,7 +118,7 @@ class _Context:
         return errors
 
     def _problem(self, data: Measurements, like: Problem, free: set[str]) -> Problem:
-        problem = build_problem(self.kinematics, self.device, data, self.effects)
+        problem = build_problem(self.kinematics, self.device, data, self.effects, functions=self.functions)
         return with_free(replace(problem, parameters=like.parameters), free) if free else replace(problem, parameters=like.parameters)
 
 
@@ -180,7 +181,7 @@ def run_diagnosis(
     pool = candidates(kinematics, device, calibration, declared, settings)
     effects = EffectSet(tuple(declared) + tuple(replace(c, free=False) for c in pool))
     context = _Context(kinematics, device, calibration, validation, effects, fit_settings, settings, instrument_moved)
-    problem = build_problem(kinematics, device, calibration, effects)
+    problem = build_problem(kinematics, device, calibration, effects, functions=context.functions)
     theta0 = problem.parameters.nominal.copy()
     if start is not None:
         theta0[: len(start)] = start

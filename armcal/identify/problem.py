@@ -234,18 +234,28 @@ def _value_and_jacobian(kinematics: KinematicModel, device: DeviceModel, effects
 
 
 def build_problem(
-    kinematics: KinematicModel, device: DeviceModel, data: Measurements, effects: EffectSet = EffectSet(), in_contact: bool = False
+    kinematics: KinematicModel,
+    device: DeviceModel,
+    data: Measurements,
+    effects: EffectSet = EffectSet(),
+    in_contact: bool = False,
+    functions: dict[Key, ca.Function] | None = None,
 ) -> Problem:
     """Assemble residuals of all samples of ``data`` (already prepared by the device), with ``effects``; for a contact
     instrument with its ``design``, the problem at the poses moved into the nominal model's contacts (unless
-    ``in_contact``: the data's poses hold them already)."""
+    ``in_contact``: the data's poses hold them already).
+
+    ``functions``: the keys' compiled functions of this model (robot, instrument, effects) from earlier problems,
+    filled here with the keys it lacks. A caller that builds many problems of one model (the diagnosis's folds) passes
+    one dict: the functions are derived and compiled once, and every fold evaluates the same machine code."""
     parameters = combined_parameters(kinematics, device, effects)
     samples, channels, kinds, keys, sigmas, measured = [], [], [], [], [], []
     key_rows = data.groups()
     given = device.pseudo_observations()  # readings the spec gives, at no sample
     key_rows.update({key: np.array([-1]) for key in given})
-    canonical = sorted(key_rows, key=str)  # one library serves every data set with the same keys
-    functions = dict(zip(canonical, compiled([_value_and_jacobian(kinematics, device, effects, k) for k in canonical])))
+    functions = {} if functions is None else functions
+    missing = sorted((k for k in key_rows if k not in functions), key=str)  # one library serves every data set with the same keys
+    functions.update(zip(missing, compiled([_value_and_jacobian(kinematics, device, effects, k) for k in missing])))
     extras = extras_matrix(data.extras, len(data), kinematics.dof)
     design = None
     if device.contact and not in_contact:
@@ -255,7 +265,7 @@ def build_problem(
             if device.target(key) is not None:
                 contact = np.stack([data.readings[c.name][rows] for c in device.channels(key)], axis=1)
                 moved[rows] = _held_by_nominal(functions[key], data.q[rows], extras[rows], contact, nominal, kinematics.limits)
-        design = build_problem(kinematics, device, replace(data, q=moved), effects, in_contact=True)
+        design = build_problem(kinematics, device, replace(data, q=moved), effects, in_contact=True, functions=functions)
     blocks = []
     for key, rows in key_rows.items():
         key_channels = device.channels(key)

@@ -64,7 +64,7 @@ class FlatDirection(_Frozen):
 
 
 class ParallelAxesInfo(_Frozen):
-    """Consecutive parallel axes of a dh chain and how they are modelled (kinematics/parallel.py)."""
+    """Consecutive parallel axes of a dh chain and how they are modelled (kinematics/parallel_axes.py)."""
 
     joints: tuple[int, int]
     added: str | None  # Hayati's beta added by armcal

@@ -1,4 +1,4 @@
-"""results.json: the contract of ARCHITECTURE.md as frozen models (no CasADi here)."""
+"""results.json: the contract of docs/architecture.md as frozen models (no CasADi here)."""
 
 from __future__ import annotations
 

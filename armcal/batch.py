@@ -18,8 +18,8 @@ from pathlib import Path
 
 from armcal.errors import UserError, shown_text
 from armcal.fileio import output_folder, write_text_atomic
-from armcal.parallel import check_workers, run_tasks
 from armcal.pipeline import default_out_dir, run
+from armcal.workers import check_workers, run_tasks
 
 
 INTERNAL = 4  # exit code of a fleet in which a spec met an internal error

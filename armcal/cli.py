@@ -1,4 +1,4 @@
-"""Command line: thin wrappers over the library (contract in ARCHITECTURE.md)."""
+"""Command line: thin wrappers over the library (contract in docs/architecture.md)."""
 
 from __future__ import annotations
 

@@ -62,6 +62,32 @@ def _size(count: int) -> str:
     return f"{count / MiB:.3g} MiB" if count >= MiB else f"{count / KiB:.3g} KiB"
 
 
+def read_regular(path: Path, limit: int, shown: Path) -> bytes | None:
+    """The bytes of a regular file of at most ``limit`` bytes; None if there is none. A FIFO or device is refused, never opened to read."""
+    try:
+        handle = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # O_NONBLOCK: opening a FIFO does not wait for a writer
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError) as exc:
+        raise UserError(f"{shown}: cannot read the file ({getattr(exc, 'strerror', None) or exc})") from None
+    if not stat.S_ISREG(os.fstat(handle).st_mode):
+        os.close(handle)
+        raise UserError(f"{shown} is not a regular file; refused")
+    with os.fdopen(handle, "rb") as stream:
+        data = stream.read(limit + 1)
+    if len(data) > limit:
+        raise UserError(f"{shown} is larger than {limit // MiB} MiB; refused")
+    return data
+
+
+def decoded(data: bytes, shown: Path) -> str:
+    """UTF-8 text, else a UserError naming the file and the first bad byte."""
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise UserError(f"{shown}: the file is not UTF-8 text (byte {exc.start})") from None
+
+
 def output_folder(path: Path) -> Path:
     """``path``, checked as a folder to write into: a user error if a file, a dangling link or something
     unreadable is in the way (a link to nothing is never followed: armcal would create a folder where it points),

@@ -31,12 +31,12 @@ from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve, accuracy_la
 from armcal.evaluate.study_statistics import index_statistics, trend
 from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, variant
 from armcal.identify.threads import processors
-from armcal.parallel import check_workers, run_tasks
 from armcal.planner import DEFAULT_CANDIDATES
 from armcal.procedures.tasks import grid_task
 from armcal.report.study_plots import study_plots
 from armcal.spec import load_spec
 from armcal.units import from_internal
+from armcal.workers import check_workers, run_tasks
 
 INDEX_NAMES = list(grid_indices(grid_task(), grid_task()))
 STUDY_FILES = ("montecarlo.json", "montecarlo.csv")  # with the SVG plots: what a study's folder holds

@@ -18,12 +18,13 @@ from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import draw_plots
 from armcal.output_set import output_set, run_id, stamp_svg
 from armcal.progress import stage
-from armcal.report.render import certificate_files, check_templates, read_earlier, template_folders
+from armcal.report.render import certificate_files, check_templates, template_folders
 from armcal.results.build import build_results
 from armcal.results.schema import Results
 from armcal.results.calibrated import calibrated_text
 from armcal.results.campaign_block import campaign, certificate_unit
 from armcal.results.history import history_entries
+from armcal.results.reader import read_earlier
 from armcal.simulate import find_truth, simulated_times
 from armcal.spec.placeholders import placeholder_notes
 from armcal.spec.sections import Simulate

@@ -24,10 +24,10 @@ from armcal.devices.registry import INSTRUMENTS, instruments_where
 from armcal.errors import UserError, either, with_article
 from armcal.evaluate.montecarlo import robot_seeds
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_label
+from armcal.evaluate.working_region import REGIONS, working_region
 from armcal.fileio import csv_text, refuse_replacing
 from armcal.procedures import pose_selection as ps
 from armcal.procedures.poses import keyed_plan
-from armcal.procedures.regions import REGIONS, working_region
 from armcal.report.render import write_files
 from armcal.spec import load_spec
 from armcal.units import from_internal
@@ -62,7 +62,7 @@ def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | No
                  orientation: str = "task") -> tuple[PosePlan, list[Path]]:
     """Plan, predict and write POSES.csv and POSES.json; a user error for anything the user can fix.
 
-    ``region`` (iso_cube, grid; procedures/regions.py): the accuracy that counts is in the robot's working region,
+    ``region`` (iso_cube, grid; evaluate/working_region.py): the accuracy that counts is in the robot's working region,
     its poses at the task's ``orientation`` or at any; the criterion defaults to I then (W over the region)."""
     criterion = criterion or ("I" if region else "D")
     if not 1 <= poses <= MAX_POSES:

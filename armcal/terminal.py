@@ -10,7 +10,7 @@ import numpy as np
 from armcal.errors import UserError, shown_text
 from armcal.evaluate.grid import RADIAL
 from armcal.kinematics.compiler import compile_robot
-from armcal.kinematics.parallel import parallel_axes
+from armcal.kinematics.parallel_axes import parallel_axes
 from armcal.kinematics.transforms import pose_from_matrix
 from armcal.identify.precision import WEAK
 from armcal.report.numbers import counted, improvement, median_improvement, p_value, task_noise

@@ -2,7 +2,7 @@
 
 Issue 17's claim "N planned poses reach the held-out accuracy of at least 3N random poses" failed over the whole
 joint range (plan_vs_random.py, docs/plan.md). Here the accuracy that counts is where the robot works:
-  - working region: the ISO 9283 cube armcal places (procedures/regions.py; the box of the measured point),
+  - working region: the ISO 9283 cube armcal places (evaluate/working_region.py; the box of the measured point),
     with the poses at the task's orientation (points uniform in the cube solved by inverse kinematics,
     "task") or at any orientation the joints allow (joint-space samples whose point lies in the cube, "any");
   - held-out: 300 such poses (an independent draw); accuracy as in plan_vs_random.py (RMS 3D position error
@@ -33,8 +33,8 @@ sys.path.insert(0, str(ROOT))
 import numpy as np  # noqa: E402
 
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve  # noqa: E402
+from armcal.evaluate.working_region import working_region  # noqa: E402
 from armcal.kinematics.compiler import compile_robot  # noqa: E402
-from armcal.procedures.regions import working_region  # noqa: E402
 from armcal.spec import load_spec  # noqa: E402
 
 COUNTS = (15, 30, 60)

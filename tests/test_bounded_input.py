@@ -112,12 +112,12 @@ def test_a_malformed_scheduler_address_is_refused_at_once(tmp_path, address):
 @pytest.mark.parametrize("address", ["tcp://", "nonsense", "tcp://host:99999", "a b:1"])
 def test_a_malformed_scheduler_address_is_refused_before_any_connection(monkeypatch, address):
     """'At once' without a clock: the address is refused before Dask is asked to connect (its timeout: 30 s)."""
-    from armcal import parallel
+    from armcal import workers
     from armcal.errors import UserError
 
-    monkeypatch.setattr(parallel, "_on_dask", lambda *args: pytest.fail("a connection was tried"))
+    monkeypatch.setattr(workers, "_on_dask", lambda *args: pytest.fail("a connection was tried"))
     with pytest.raises(UserError, match="is not a scheduler address"):
-        parallel.run_tasks(abs, [1], scheduler=address)
+        workers.run_tasks(abs, [1], scheduler=address)
 
 
 def test_studies_and_procedures_of_unbounded_size(workspace):

@@ -1,4 +1,4 @@
-"""The CSV columns of a spec's data files (contract in ARCHITECTURE.md) and their units.
+"""The CSV columns of a spec's data files (contract in docs/architecture.md) and their units.
 
 Common: ``sample``, ``q1..qN`` (spec angle unit for revolute joints, length unit
 for prismatic), optional ``t`` (s), ``temperature`` (degC), ``dir1..dirN`` (+1/-1).

@@ -65,7 +65,7 @@ class DeviceModel(ABC):
         """The readings a data file with this header holds, where the instrument offers a choice."""
         return requested
 
-    # Its data files (the CSV contract of ARCHITECTURE.md)
+    # Its data files (the CSV contract of docs/architecture.md)
     key_columns: tuple[str, ...] = ("target",)  # text columns that make a sample's key
     optional_key_columns: tuple[str, ...] = ()  # key columns a file may leave out or empty (None in the key)
     keyed_poses: bool = False  # each pose is read on one key, which pose lists name; else on every pose_keys()

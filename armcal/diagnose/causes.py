@@ -10,7 +10,7 @@ NOISE_CHECK_LEVEL), three kinds of evidence are at hand:
   ||Q_c' r||^2 (r weighted by the declared sigmas; the score test of
   diagnose/score.py, in chi2 units): freeing the group would bring chi2/dof to
   (chi2 - drop) / (dof - k). A held beta where consecutive axes are parallel is
-  named as Hayati's (kinematics/parallel.py);
+  named as Hayati's (kinematics/parallel_axes.py);
 - the diagnosis' candidates that were significant but not accepted, or that the
   geometry absorbs (not distinguishable);
 - the declared noise itself: if the model is complete, the instrument's sigma is
@@ -29,7 +29,7 @@ from scipy.special import chdtrc
 
 from armcal.diagnose.score import ABSORBED
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
-from armcal.kinematics.parallel import PARALLEL_DEG
+from armcal.kinematics.parallel_axes import PARALLEL_DEG
 from armcal.spec.locations import yaml_path
 
 SHOWN = 4  # held groups named at most

@@ -1,4 +1,4 @@
-"""The effect vocabulary (ARCHITECTURE.md) as internal descriptions with named parameters.
+"""The effect vocabulary (docs/architecture.md) as internal descriptions with named parameters.
 
 An effect is identified by its type and what it acts on (joint, driving joint,
 harmonic order, microphone, pivot); its parameters are named ``<id>.<field>``, e.g.

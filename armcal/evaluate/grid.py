@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from armcal.kinematics.parallel import parallel_axes
+from armcal.kinematics.parallel_axes import parallel_axes
 
 LINES = [(1, 2), (1, 3), (2, 4), (3, 4), (5, 6), (5, 7), (6, 8), (7, 8), (1, 5), (2, 6), (3, 7), (4, 8)]
 DIAGONALS = [(1, 4), (2, 3), (5, 8), (6, 7)]

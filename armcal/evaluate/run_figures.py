@@ -14,7 +14,7 @@ from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
 from armcal.evaluate.residuals import before_after, distance_before_after, improvement, reading_noise, readings_residuals, residual_unit
 from armcal.identify.uncertainty import residual_stats
-from armcal.kinematics.parallel import parallel_axes
+from armcal.kinematics.parallel_axes import parallel_axes
 from armcal.spec import LoadedSpec
 from armcal.spec.effect_vocabulary import EFFECT_TYPES
 from armcal.units import from_internal

@@ -17,7 +17,7 @@ from armcal.export.parameters import parameters_json
 from armcal.export.ur_calibration import ur_calibration
 from armcal.export.urdf import urdf
 from armcal.kinematics.compiler import compile_robot
-from armcal.report.render import read_results
+from armcal.results.reader import read_results
 from armcal.spec import LoadedSpec, load_spec
 
 FORMATS = ("urdf", "ur-calibration", "dh-table", "json")

@@ -1,7 +1,7 @@
 """The threads the numerical work shares out: the compiled calls of a problem's evaluation (CasADi runs them
 without Python's lock) and the row blocks of a Jacobian's QR (LAPACK runs without it too), one share per processor
 this process may use (at most MAX_WORKERS). What is cut into items never depends on the number of threads, so the
-numbers are the same bit for bit on one thread or four. A process pool's workers (parallel.py) divide the
+numbers are the same bit for bit on one thread or four. A process pool's workers (workers.py) divide the
 processors among them; BLAS itself stays single-threaded (armcal/__init__.py)."""
 
 from __future__ import annotations

@@ -132,7 +132,7 @@ def _chain(robot: RobotBase, symbol: dict, q: list, joint_types: tuple[str, ...]
             links.append(conventions.smodel_link(beta, d, s["a"], s["alpha"], s["gamma"], s["b"]))
         else:
             theta, d = (s["theta"] + qi, s["d"]) if revolute else (s["theta"], s["d"] + qi)
-            if "beta" in s:  # mdh, or a dh joint with Hayati's beta (kinematics/parallel.py)
+            if "beta" in s:  # mdh, or a dh joint with Hayati's beta (kinematics/parallel_axes.py)
                 links.append(conventions.mdh_link(theta, d, s["a"], s["alpha"], s["beta"]))
             else:
                 links.append(conventions.dh_link(theta, d, s["a"], s["alpha"]))

@@ -7,7 +7,7 @@ Stone 2.2.1: F_0 = Z_0 (the base), then for each joint i < n, with axis i+1 the 
 
 - axes more than PARALLEL_DEG from parallel: x_i along their common normal (a >= 0), d_i the height of its foot on
   axis i, alpha_i the twist about it; beta_i = 0, A_i = Rot(z, theta) Trans(0, 0, d) Trans(a, 0, 0) Rot(x, alpha);
-- within PARALLEL_DEG: Hayati's row with d_i = 0 (Hayati & Mirmirani 1985, kinematics/parallel.py): F_i's origin
+- within PARALLEL_DEG: Hayati's row with d_i = 0 (Hayati & Mirmirani 1985, kinematics/parallel_axes.py): F_i's origin
   where axis i+1 crosses the plane z = 0 of F_(i-1), at distance a in direction theta, and
   Rot(x, alpha) Rot(y, beta) turning z onto u. A beta of 0 (below BETA_DUST) makes it Stone's row: x_i is then
   the common normal, at d_i = 0 (parallel axes: one of many).
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from armcal.kinematics.conventions import mdh_link
-from armcal.kinematics.parallel import PARALLEL_DEG
+from armcal.kinematics.parallel_axes import PARALLEL_DEG
 from armcal.kinematics.transforms import inverse
 
 BETA_DUST = 1e-12  # rad: a Hayati tilt below it moves a 10 m arm by 1e-8 mm, and is Stone's row (beta 0)

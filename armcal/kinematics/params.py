@@ -10,7 +10,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from armcal.kinematics.parallel import parallel_axes
+from armcal.kinematics.parallel_axes import parallel_axes
 from armcal.spec.base import Parameter
 from armcal.spec.robot import RobotBase, SixParameterRobot, Tolerance, joint_kind
 from armcal.units import INTERNAL_UNIT
@@ -105,7 +105,7 @@ def parameter_set(robot: RobotBase) -> ParameterSet:
     """All parameters of a spec robot in chain order: base, joints (and links), tool, targets.
 
     A ``dh`` joint has Hayati's beta where the spec gives one or its axis is parallel to
-    the next (kinematics/parallel.py), with its d then held."""
+    the next (kinematics/parallel_axes.py), with its d then held."""
     entries = pose_entries("base", robot.base)
     fields = JOINT_FIELDS[robot.convention]  # type: ignore[attr-defined]
     parallel = {p.joint: p for p in parallel_axes(robot)}

@@ -7,11 +7,8 @@ resolving links, of bounded size (the limits below, listed in docs/errors.md).
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import re
-import stat
 import traceback
 from pathlib import Path
 
@@ -19,25 +16,21 @@ import jinja2
 from jinja2.compiler import CodeGenerator
 from jinja2.loaders import split_template_path
 from jinja2.sandbox import SandboxedEnvironment, SecurityError, safe_range
-from pydantic import ValidationError
 
-from armcal.errors import UserError, shown_key
-from armcal.fileio import write_bytes_atomic
+from armcal.errors import UserError
+from armcal.fileio import MiB, decoded, read_regular, write_bytes_atomic
 from armcal.output_set import check_set, replace_in_set
 from armcal.report.context import certificate_context
-from armcal.results.changes import check_same_robot
 from armcal.results.history import history_entries
-from armcal.results.schema import Results
+from armcal.results.reader import read_earlier, read_results, results_file
 
 PACKAGED = Path(__file__).resolve().parent.parent / "templates"
 TEMPLATE = "certificate.html.j2"
 CERTIFICATES = ("certificate.pdf", "certificate.html")
 
-MIB = 1 << 20
-FOLDER_FILE_LIMIT = 1 * MIB  # a template, stylesheet or image of a template folder
-PLOT_LIMIT = 10 * MIB  # an SVG plot beside results.json
-RESULTS_LIMIT = 16 * MIB  # results.json (armcal's own are well below 1 MiB)
-TEXT_LIMIT = 256 * MIB  # text one render may make: each value it prints and each join (output, blocks, macros), counted together
+FOLDER_FILE_LIMIT = 1 * MiB  # a template, stylesheet or image of a template folder
+PLOT_LIMIT = 10 * MiB  # an SVG plot beside results.json
+TEXT_LIMIT = 256 * MiB  # text one render may make: each value it prints and each join (output, blocks, macros), counted together
 RANGE_LIMIT = 1_000_000  # items of all range() calls of one render (each at most the sandbox's 100000)
 REPEAT_LIMIT = 1_000_000  # items of a string or list repeated with *
 NUMBER_BITS = 128  # integers computed with * and ** stay below 2**128
@@ -47,24 +40,6 @@ FORMAT_WIDTH = re.compile(r"%[-+ #0]*(\d+)")  # the width of each % conversion
 def template_folders(user_folder: Path | None) -> list[Path]:
     """A user's template folder first, then the packaged one."""
     return ([user_folder] if user_folder else []) + [PACKAGED]
-
-
-def read_regular(path: Path, limit: int, shown: Path) -> bytes | None:
-    """The bytes of a regular file of at most ``limit`` bytes; None if there is none. A FIFO or device is refused, never opened to read."""
-    try:
-        handle = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # O_NONBLOCK: opening a FIFO does not wait for a writer
-    except FileNotFoundError:
-        return None
-    except (OSError, ValueError) as exc:
-        raise UserError(f"{shown}: cannot read the file ({getattr(exc, 'strerror', None) or exc})") from None
-    if not stat.S_ISREG(os.fstat(handle).st_mode):
-        os.close(handle)
-        raise UserError(f"{shown} is not a regular file; refused")
-    with os.fdopen(handle, "rb") as stream:
-        data = stream.read(limit + 1)
-    if len(data) > limit:
-        raise UserError(f"{shown} is larger than {limit // MIB} MiB; refused")
-    return data
 
 
 def read_inside(folder: Path, name: str, limit: int) -> bytes | None:
@@ -78,14 +53,6 @@ def read_inside(folder: Path, name: str, limit: int) -> bytes | None:
     if not path.is_relative_to(root):
         raise UserError(f"{shown} leads outside {folder} (a link, '..' or an absolute path); only files inside the folder are read")
     return read_regular(path, limit, shown)
-
-
-def decoded(data: bytes, shown: Path) -> str:
-    """UTF-8 text, else a UserError naming the file and the first bad byte."""
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise UserError(f"{shown}: the file is not UTF-8 text (byte {exc.start})") from None
 
 
 class FolderLoader(jinja2.BaseLoader):
@@ -133,7 +100,7 @@ class CertificateEnvironment(SandboxedEnvironment):
     def count_text(self, length: int) -> None:
         self.characters += length
         if self.characters > TEXT_LIMIT:
-            raise SecurityError(f"the template renders more than {TEXT_LIMIT // MIB} MiB of text")
+            raise SecurityError(f"the template renders more than {TEXT_LIMIT // MiB} MiB of text")
 
     def bounded_range(self, *args: int) -> range:
         """range() as the sandbox allows it, with at most RANGE_LIMIT items over the whole render."""
@@ -268,42 +235,6 @@ def write_files(folder: Path, files: dict[str, bytes | str]) -> list[Path]:
         write_bytes_atomic(path, content.encode("utf-8") if isinstance(content, str) else content)
         written.append(path)
     return written
-
-
-def results_file(path: Path) -> Path:
-    """The results.json a user names: the file itself, or the one in a run's output folder."""
-    return path / "results.json" if path.is_dir() else path
-
-
-def read_results(path: Path) -> dict:
-    """A results.json as armcal writes it (checked against the Results model), else one UserError naming the file."""
-    data = read_regular(path, RESULTS_LIMIT, path)
-    if data is None:
-        raise UserError(f"{path}: cannot read results (no such file)")
-    try:
-        raw = json.loads(decoded(data, path))
-    except ValueError:
-        raise UserError(f"{path}: expected the results.json that armcal run writes (or its output folder), but this file is not JSON") from None
-    except RecursionError:
-        raise UserError(f"{path}: cannot read results (nested too deeply)") from None
-    try:
-        return Results.model_validate(raw).model_dump(mode="json")
-    except ValidationError as exc:
-        problems = [f"{'.'.join(map(shown_key, e['loc'])) or 'the top level'}: {e['msg']}" for e in exc.errors()]
-        more = f" (and {len(problems) - 3} more)" if len(problems) > 3 else ""
-        raise UserError(f"{path}: not a results.json as armcal writes it: {'; '.join(problems[:3])}{more}") from None
-
-
-def read_earlier(paths: list[Path], serial: str, current: str) -> list[tuple[str, dict]]:
-    """Earlier results (each a results.json or a run's folder, read_results) of the robot ``serial``; another serial is a
-    UserError naming the file. ``current`` names the run they are compared with."""
-    earlier = []
-    for path in paths:
-        source = results_file(Path(path))
-        old = read_results(source)
-        check_same_robot(old["robot"]["serial"], serial, str(source), current)
-        earlier.append((str(source.resolve()), old))
-    return earlier
 
 
 def read_plots(results_path: Path, names: list[str]) -> dict[str, str]:

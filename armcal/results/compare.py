@@ -21,7 +21,7 @@ from armcal.evaluate.position_changes import POSES, common_box, position_changes
 from armcal.fileio import INPUT_LIMITS
 from armcal.gitrepo import file_at_revision
 from armcal.kinematics.params import parameter_set
-from armcal.report.render import read_results, results_file
+from armcal.results.reader import read_results, results_file
 from armcal.evaluate.multiple_testing import ALPHA
 from armcal.results.changes import NO_BASIS, Basis, basis, changes, check_same_robot
 from armcal.spec.locations import yaml_path

@@ -1,4 +1,4 @@
-"""results.json: the contract of ARCHITECTURE.md as frozen models (no CasADi here)."""
+"""results.json: the contract of docs/architecture.md as frozen models (no CasADi here)."""
 
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ class FlatDirection(_Frozen):
 
 
 class ParallelAxesInfo(_Frozen):
-    """Consecutive parallel axes of a dh chain and how they are modelled (kinematics/parallel.py)."""
+    """Consecutive parallel axes of a dh chain and how they are modelled (kinematics/parallel_axes.py)."""
 
     joints: tuple[int, int]
     added: str | None  # Hayati's beta added by armcal

@@ -16,8 +16,9 @@ import pytest
 import independent_sim as sim
 from armcal.devices import device_model
 from armcal.evaluate.plan_accuracy import PlanStudy
+from armcal.evaluate.working_region import working_region
 from armcal.kinematics.compiler import compile_robot
-from armcal.procedures.regions import region_candidates, working_region
+from armcal.procedures.regions import region_candidates
 from armcal.spec import load_spec
 from test_plan import _cli, kuka  # noqa: F401 (a fixture)
 

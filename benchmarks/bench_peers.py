@@ -24,9 +24,13 @@ Tools, each fitting the same calibration data from the same start the way its do
 
 Held-out accuracy is computed here by one function (held_out_rms) for every tool from the tool's own
 predictions of the held-out readings: tracker positions in the tracker frame (with the tool's own
-registration, i.e. its fitted world frame), or ball-bar lengths. Fit time is the tool's fit call;
-end-to-end adds model building (armcal: compiling or loading its functions; peers: the whole
-subprocess, interpreter start and imports included).
+registration, i.e. its fitted world frame), or ball-bar lengths; the same function of its predictions of
+the calibration readings is its fit's residual (cal mm): a tool at the least-squares minimum of a complete
+model has the smallest (benchmarks/peer_differences.py changes armcal's fit one peer difference at a
+time); "registered" is the held-out figure after the rigid transform that best maps the tool's held-out
+positions onto the readings (Kabsch: the tracker registered anew on the held-out data, six parameters
+no robot geometry changes), so a gap there is the robot's, not the registration's. Fit time is the tool's fit call; end-to-end adds model building (armcal: compiling or loading its
+functions; peers: the whole subprocess, interpreter start and imports included).
 
 Peers run in their own interpreters (pybotics pins numpy < 2, Pinocchio 4 wants numpy 2; neither is an
 armcal dependency). Set them up once, outside the repository:
@@ -65,6 +69,7 @@ from armcal.identify.fit import fit
 from armcal.identify.problem import build_problem
 from armcal.identify.starting_values import starting_values
 from armcal.kinematics.compiler import compile_robot
+from armcal.kinematics.transforms import rigid_registration
 from armcal.pipeline import run
 from armcal.spec import load_spec
 from armcal.units import from_internal
@@ -89,6 +94,15 @@ def held_out_rms(predicted: np.ndarray, measured: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((predicted - measured) ** 2, axis=1))))
 
 
+def registered_rms(predicted: np.ndarray, measured: np.ndarray) -> float | None:
+    """held_out_rms of tracker positions after the rigid transform that best maps them onto the measured ones
+    (armcal.kinematics.transforms.rigid_registration); None for ball-bar lengths."""
+    if predicted.shape[1] != 3:
+        return None
+    T = rigid_registration(predicted, measured)
+    return held_out_rms(predicted @ T[:3, :3].T + T[:3, 3], measured)
+
+
 @dataclass
 class Case:
     """One calibration case as every tool sees it: the spec, armcal's data, and the plain arrays."""
@@ -99,7 +113,17 @@ class Case:
     validation: object
     start_from_data: bool = True
     spec_text: str | None = None  # the spec as `armcal run` reads it, data: {calibration: calibration.csv, validation: validation.csv}
-    rows: list = field(default_factory=list)  # table rows (tool, params, fit s, end-to-end s, rms mm, note)
+    rows: list = field(default_factory=list)  # table rows (tool, params, fit s, end-to-end s, cal mm, held-out mm, registered mm, note)
+
+    def add(self, tool: str, parameters: int, fit_seconds: float, total: float, fitted: np.ndarray, predicted: np.ndarray, note: str) -> None:
+        """The row of a tool from its predictions of the calibration (``fitted``) and held-out readings."""
+        measured = _measured(self.spec, self.validation)
+        cal = held_out_rms(fitted, _measured(self.spec, self.calibration))
+        self.rows.append((tool, parameters, fit_seconds, total, cal, held_out_rms(predicted, measured), registered_rms(predicted, measured), note))
+
+    def reason(self, tool: str, note: str) -> None:
+        """The row of a tool that gave no answer."""
+        self.rows.append((tool, None, None, None, None, None, None, note))
 
 
 def _measured(spec, data) -> np.ndarray:
@@ -133,15 +157,14 @@ def run_armcal(case: Case) -> dict:
     result = fit(problem, spec.fit, start)
     seconds = time.perf_counter() - started
     names = problem.parameters.names
-    measured = _measured(spec, case.validation)
-    rms = held_out_rms(_predict(spec, names, result.theta, case.validation), measured)
-    case.rows.append(("armcal", len(result.base), seconds, setup + seconds, rms, f"{result.solver.iterations} LM iterations"))
+    fitted, predicted = (_predict(spec, names, result.theta, data) for data in (case.calibration, case.validation))
+    case.add("armcal", len(result.base), seconds, setup + seconds, fitted, predicted, f"{result.solver.iterations} LM iterations")
     model = NumpyCampaign(spec.robot, {"tracker": Tracker, "ballbar": BallBar}[spec.device.type](spec.device), names, calibration)
     started = time.perf_counter()
     theta, calls = scipy_lm_fd(model, start, result.base)
     seconds = time.perf_counter() - started
-    rms = held_out_rms(_predict(spec, names, theta, case.validation), measured)
-    case.rows.append(("scipy LM (FD)", len(result.base), seconds, seconds, rms, f"{calls} residual evaluations"))
+    fitted, predicted = (_predict(spec, names, theta, data) for data in (case.calibration, case.validation))
+    case.add("scipy LM (FD)", len(result.base), seconds, seconds, fitted, predicted, f"{calls} residual evaluations")
     return {"names": names, "start": start, "kinematics": kinematics}
 
 
@@ -158,16 +181,17 @@ def run_armcal_loop(case: Case, folder: Path) -> None:
     results = run(folder / "spec.yaml", folder / "out", pdf=False).results
     total = time.perf_counter() - started
     with (folder / "out" / "residuals.csv").open() as handle:
-        rows = [r for r in csv.DictReader(handle) if r["data"] == "validation" and r["channel"] in ("x", "y", "z")]
+        rows = [r for r in csv.DictReader(handle) if r["channel"] in ("x", "y", "z")]
     scale = from_internal(1.0, "length", case.spec.robot.units.length)  # the CSV is in the spec's unit
-    predicted: dict[str, dict[str, float]] = {}
-    for r in rows:
-        predicted.setdefault(r["line"], {})[r["channel"]] = (float(r["measured"]) + float(r["residual_after"])) / scale
-    lines = sorted(predicted, key=int)
-    measured = _measured(case.spec, case.validation)
-    rms = held_out_rms(np.array([[predicted[line][c] for c in "xyz"] for line in lines]), measured)
+    positions = []
+    for name in ("calibration", "validation"):
+        predicted: dict[str, dict[str, float]] = {}
+        for r in rows:
+            if r["data"] == name:
+                predicted.setdefault(r["line"], {})[r["channel"]] = (float(r["measured"]) + float(r["residual_after"])) / scale
+        positions.append(np.array([[predicted[line][c] for c in "xyz"] for line in sorted(predicted, key=int)]))
     added = ", ".join(f"{e.type}" + (f" j{e.joint}" if e.joint else "") for e in results.diagnosis.added_effects) or "none"
-    case.rows.append(("armcal run", results.identifiability.rank, total, total, rms, f"the whole loop (fit s: the whole run); effects added: {added}"))
+    case.add("armcal run", results.identifiability.rank, total, total, *positions, f"the whole loop (fit s: the whole run); effects added: {added}")
 
 
 def _peer_input(case: Case, armcal: dict, folder: Path) -> Path:
@@ -193,24 +217,23 @@ def run_peer(tool: str, case: Case, path: Path) -> None:
     """One peer in its own interpreter: its row, or its one-line reason."""
     python, worker = INTERPRETERS[tool], WORKERS[tool]
     if not Path(python).exists():
-        case.rows.append((tool, None, None, None, None, f"not installed: no interpreter {python} (see this script's docstring)"))
+        case.reason(tool, f"not installed: no interpreter {python} (see this script's docstring)")
         return
     out = path.with_suffix(f".{tool}.json")
     started = time.perf_counter()
     try:
         done = subprocess.run([python, str(worker), str(path), str(out)], capture_output=True, text=True, timeout=PEER_TIMEOUT)
     except subprocess.TimeoutExpired:
-        case.rows.append((tool, None, None, None, None, f"no answer within {PEER_TIMEOUT} s"))
+        case.reason(tool, f"no answer within {PEER_TIMEOUT} s")
         return
     total = time.perf_counter() - started
     if done.returncode != 0 or not out.exists():
         lines = [line for line in (done.stderr or done.stdout).strip().splitlines() if line.strip()]
-        case.rows.append((tool, None, None, None, None, f"failed: {lines[-1] if lines else f'exit {done.returncode}'}"))
+        case.reason(tool, f"failed: {lines[-1] if lines else f'exit {done.returncode}'}")
         return
     answer = json.loads(out.read_text())
-    predicted = np.array(answer["predicted"])
-    rms = held_out_rms(predicted, _measured(case.spec, case.validation))
-    case.rows.append((tool, answer["parameters"], answer["fit_seconds"], total, rms, answer["note"]))
+    fitted, predicted = np.array(answer["fitted"]), np.array(answer["predicted"])
+    case.add(tool, answer["parameters"], answer["fit_seconds"], total, fitted, predicted, answer["note"])
 
 
 # --- cases ---------------------------------------------------------------------------------------
@@ -263,7 +286,7 @@ BALLBAR_REASONS = {
 
 # --- table ---------------------------------------------------------------------------------------
 
-HEADER = f"{'case':34s} {'tool':14s} {'par':>4s} {'fit s':>8s} {'e2e s':>8s} {'held-out mm':>11s} {'/armcal':>7s}  note"
+HEADER = f"{'case':34s} {'tool':14s} {'par':>4s} {'fit s':>8s} {'e2e s':>8s} {'cal mm':>8s} {'held-out mm':>11s} {'/armcal':>7s} {'registered':>10s}  note"
 
 
 def print_table(cases: list) -> None:
@@ -273,15 +296,18 @@ def print_table(cases: list) -> None:
         if isinstance(case, str):
             print(case)
             continue
-        reference = next(r[4] for r in case.rows if r[0] == "armcal")
-        for tool, par, fit_s, total, rms, note in case.rows:
+        reference = next(r[5] for r in case.rows if r[0] == "armcal")
+        for tool, par, fit_s, total, cal, rms, registered, note in case.rows:
             if rms is None:
-                print(f"{case.name:34s} {tool:14s} {'-':>4s} {'-':>8s} {'-':>8s} {'-':>11s} {'-':>7s}  {note}")
+                print(f"{case.name:34s} {tool:14s} {'-':>4s} {'-':>8s} {'-':>8s} {'-':>8s} {'-':>11s} {'-':>7s} {'-':>10s}  {note}")
             else:
-                print(f"{case.name:34s} {tool:14s} {par:4d} {fit_s:8.2f} {total:8.2f} {rms:11.4f} {rms / reference:7.2f}  {note}")
+                shown = f"{registered:10.4f}" if registered is not None else f"{'-':>10s}"
+                print(f"{case.name:34s} {tool:14s} {par:4d} {fit_s:8.2f} {total:8.2f} {cal:8.4f} {rms:11.4f} {rms / reference:7.2f} {shown}  {note}")
     print(
         "held-out mm: RMS over held-out samples of the 3D position error per pose (tracker, each tool's own registration)"
-        " or of the length error (ball-bar), one function for all tools; /armcal: that RMS over armcal's;"
+        " or of the length error (ball-bar), one function for all tools; cal mm: the same of the calibration readings"
+        " (the fit's residual); /armcal: the held-out RMS over armcal's; registered: the held-out RMS after the rigid"
+        " transform that best maps the tool's held-out positions onto the readings (the tracker registered anew);"
         " par: parameters the tool fitted; fit s: the fit call; e2e s: model building + fit (peers: whole subprocess)"
     )
 
@@ -297,7 +323,8 @@ def main() -> None:
             armcal = run_armcal(case)
             run_armcal_loop(case, Path(folder) / f"loop{len(cases)}")
             if case.spec.device.type == "ballbar":
-                case.rows += [(tool, None, None, None, None, reason) for tool, reason in BALLBAR_REASONS.items()]
+                for tool, reason in BALLBAR_REASONS.items():
+                    case.reason(tool, reason)
                 continue
             path = _peer_input(case, armcal, Path(folder))
             for tool in ("pybotics", "FIGAROH"):

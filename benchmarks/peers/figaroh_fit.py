@@ -49,6 +49,15 @@ class PeerCalibration(BaseCalibration):
         return self.apply_measurement_weighting(residuals)
 
 
+def _positions(calibration, robot, x, q):
+    """Marker positions (N, 3) in mm of the fitted model ``x`` at joint angles ``q`` (N, n)."""
+    padded = np.zeros((len(q), robot.model.nq))
+    padded[:, : q.shape[1]] = q
+    config = dict(calibration.calib_config, NbSample=len(padded))
+    flat = calc_updated_fkm(calibration.model, calibration.data, x, padded, config)
+    return 1000.0 * np.asarray(flat).reshape(3, -1).T  # component-major, as FIGAROH stores PEE
+
+
 def main(case_path, out_path):
     case = np.load(case_path)
     folder = Path(tempfile.mkdtemp(prefix="figaroh_"))
@@ -68,14 +77,10 @@ def main(case_path, out_path):
     started = time.perf_counter()
     result = calibration.solve(enable_logging=False)
     seconds = time.perf_counter() - started
-    q_val = np.zeros((len(case["q_val"]), robot.model.nq))
-    q_val[:, : case["q_val"].shape[1]] = case["q_val"]
-    config = dict(calibration.calib_config, NbSample=len(q_val))
-    flat = calc_updated_fkm(calibration.model, calibration.data, result.x, q_val, config)
-    predicted = 1000.0 * np.asarray(flat).reshape(3, -1).T  # component-major, as FIGAROH stores PEE
+    predicted, fitted = (_positions(calibration, robot, result.x, case[key]) for key in ("q_val", "q_cal"))
     note = f"solve(): {len(result.x)} identifiable of full_params + base + tip, status {calibration.STATUS}, frame {tool}"
     with open(out_path, "w") as f:
-        json.dump({"predicted": predicted.tolist(), "fit_seconds": seconds, "parameters": int(len(result.x)), "note": note}, f)
+        json.dump({"predicted": predicted.tolist(), "fitted": fitted.tolist(), "fit_seconds": seconds, "parameters": int(len(result.x)), "note": note}, f)
 
 
 if __name__ == "__main__":

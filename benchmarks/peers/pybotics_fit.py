@@ -52,9 +52,10 @@ def main(case_path, out_path):
     seconds = time.perf_counter() - started
     handler.apply_optimization_vector(result.x)
     predicted = [handler.robot.fk(q)[:3, 3].tolist() for q in case["q_val"]]
+    fitted = [handler.robot.fk(q)[:3, 3].tolist() for q in case["q_cal"]]
     note = f"least_squares trf, 2-point FD Jacobian: {result.njev} Jacobians, status {result.status}; MDH chain 4x{len(dh)} + world 6 + tool xyz"
     with open(out_path, "w") as f:
-        json.dump({"predicted": predicted, "fit_seconds": seconds, "parameters": int(len(x0)), "note": note}, f)
+        json.dump({"predicted": predicted, "fitted": fitted, "fit_seconds": seconds, "parameters": int(len(x0)), "note": note}, f)
 
 
 if __name__ == "__main__":

@@ -105,8 +105,6 @@ def compensate(
     Overall correction by the mean ratio (E.5) gives a first triangulation whose
     height sets the ratio at the target; each range is then solved from (E.3).
     """
-    from armcal.devices.sonic import PRIMARY, microphone_distances, triangulate
-
     up = vertical(microphones)
     names = list(rods)
     if len(names) == 1:

@@ -78,7 +78,7 @@ def compile_robot(robot) -> KinematicModel:
     CasADi Functions."""
     parameters = parameter_set(robot)
     p = ca.SX.sym("p", len(parameters))
-    symbol = dict(zip(parameters.names, ca.vertsplit(p)))
+    symbol = parameters.symbols(p)
     q = ca.SX.sym("q", robot.dof)
     joint_types = tuple(j.type for j in robot.joints)  # type: ignore[attr-defined]
     first, links = _chain(robot, symbol, ca.vertsplit(q), joint_types)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import casadi as ca
 import numpy as np
 
 from armcal.kinematics.parallel_axes import parallel_axes
@@ -82,6 +83,10 @@ class ParameterSet:
 
     def values(self, p: np.ndarray) -> dict[str, float]:
         return dict(zip(self.names, np.asarray(p, dtype=float)))
+
+    def symbols(self, vector: ca.SX) -> dict[str, ca.SX]:
+        """Name -> element of a symbol vector of these parameters."""
+        return dict(zip(self.names, ca.vertsplit(vector)))
 
 
 def parameter_entry(name: str, kind: str, parameter: Parameter) -> ParameterInfo:

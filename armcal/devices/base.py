@@ -52,7 +52,7 @@ class DeviceModel(ABC):
     """
 
     type: str  # the spec's device.type
-    section: type  # the pydantic model of its spec section (a spec.instrument.DeviceSpec)
+    section: type  # the pydantic model of its spec section (a spec_parts.instrument.DeviceSpec)
     parameters: ParameterSet
     spec: object  # the device section of the spec
 

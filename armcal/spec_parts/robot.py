@@ -16,7 +16,7 @@ from pydantic import Field, ValidationInfo, WithJsonSchema, field_validator
 
 from armcal import units
 from armcal.kinematics.params import joint_kind
-from armcal.spec.base import (
+from armcal.spec_parts.base import (
     Angle,
     AngleParam,
     Length,

@@ -101,7 +101,7 @@ def validate(
     Warnings (exit 0 all the same): data files not there yet, stand-ins armcal new or import-urdf wrote that are
     unchanged (spec placeholders), a target on the axis of the joint it rides on.
     """
-    from armcal.kinematics.axis_targets import axis_warnings
+    from armcal.spec.axis_warnings import axis_warnings
     from armcal.spec import load_spec
     from armcal.spec.loader import missing_data_files
     from armcal.spec.placeholders import placeholder_warnings

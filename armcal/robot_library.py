@@ -16,7 +16,7 @@ from pydantic import TypeAdapter, ValidationError
 
 from armcal.errors import UserError
 from armcal.spec.loader import parse_yaml, validation_context
-from armcal.spec.robot import Robot, RobotBase
+from armcal.spec_parts.robot import Robot, RobotBase
 
 LIBRARY = Path(__file__).resolve().parent / "robots"
 

@@ -18,7 +18,7 @@ from armcal.results.breakdown import before_data, table_lines
 from armcal.results.plausibility import WHY, status_words
 from armcal.results.schema import TASK_TITLES
 from armcal.spec import LoadedSpec
-from armcal.spec.robot import joint_kind
+from armcal.kinematics.params import joint_kind
 from armcal.units import from_internal, to_internal
 
 

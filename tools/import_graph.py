@@ -4,7 +4,7 @@ Each node is a top-level name under armcal/: a sub-package (`spec`, `kinematics`
 root module (`cli`, `pipeline`, ...). An edge A -> B means some file of A imports something
 of B. Every import statement counts, wherever it stands: at module level, inside a function
 (a lazy import) or under `if TYPE_CHECKING`. Imports within one node are not edges; a module named
-by a string to importlib is not seen (armcal's one, in spec/__init__.py, stays inside spec).
+by a string to importlib is not seen (armcal names none).
 
     python tools/import_graph.py          prints the cycles (strongly connected components
                                           with more than one node), one a line; exit 1 if any

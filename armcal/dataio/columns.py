@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from armcal.devices import DeviceModel
 from armcal.spec.document import Spec
-from armcal.spec.robot import joint_kind
+from armcal.kinematics.params import joint_kind
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from armcal.devices import device_model
 from armcal.errors import Issue, SpecError
 from armcal.fileio import read_input, spreadsheet_text
 from armcal.spec.document import Spec
-from armcal.spec.robot import joint_kind
+from armcal.kinematics.params import joint_kind
 from armcal.units import factor, is_number, parse_number
 
 MAX_ISSUES = 20

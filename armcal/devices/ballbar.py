@@ -20,9 +20,9 @@ from armcal.effects.library import EffectSpec
 from armcal.kinematics import ik
 from armcal.kinematics.params import ParameterSet, parameter_entry, point_entries
 from armcal.kinematics.transforms import on_sphere
-from armcal.spec.base import Length, LengthParam
-from armcal.spec.starter import mm
-from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
+from armcal.spec_parts.base import Length, LengthParam
+from armcal.spec_parts.starter import mm
+from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
 
 
 DEFAULT_LATITUDES = (10.0, 85.0)  # degrees above a pivot, where the spec has no shells to take the range from

@@ -26,6 +26,7 @@ from types import MappingProxyType
 import casadi as ca
 import numpy as np
 
+from armcal.effects.measurement import EffectSet, extras_size
 from armcal.errors import UserError
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
@@ -51,7 +52,7 @@ class DeviceModel(ABC):
     """
 
     type: str  # the spec's device.type
-    section: type  # the pydantic model of its spec section (a spec.instrument.DeviceSpec)
+    section: type  # the pydantic model of its spec section (a spec_parts.instrument.DeviceSpec)
     parameters: ParameterSet
     spec: object  # the device section of the spec
 
@@ -171,7 +172,7 @@ class DeviceModel(ABC):
         """g(T[4x4] pose of the target in the robot base frame, pd) -> readings, one Function per key."""
         pose = ca.SX.sym("T", 4, 4)
         pd = ca.SX.sym("pd", len(self.parameters))
-        readings = self.readings(key, pose, symbols(self.parameters, pd))
+        readings = self.readings(key, pose, self.parameters.symbols(pd))
         return ca.Function(f"g_{self.type}", [pose, pd], [readings], ["T", "pd"], ["y"])
 
     noise_scale: MappingProxyType = MappingProxyType({})  # noise group -> factor on noise_sigma, estimated from the data
@@ -258,9 +259,7 @@ class DeviceModel(ABC):
         self, kinematics: KinematicModel, key: Key, Q: np.ndarray, p: np.ndarray | None = None, pd: np.ndarray | None = None
     ) -> np.ndarray:
         """Readings (N, channels) of N samples of one key, one mapped call of the measurement function h with no
-        effects (built in one place, effects/measurement.py, which builds on this module)."""
-        from armcal.effects.measurement import EffectSet, extras_size
-
+        effects (built in one place, effects/measurement.py)."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         if len(Q) == 0:
             return np.zeros((0, len(self.channels(key))))
@@ -303,11 +302,6 @@ def held_in_contact(read, Q: np.ndarray, offset: np.ndarray, limits: np.ndarray,
 def declared(sigma: float | str) -> float:
     """A noise field's sigma in internal units; auto is the unit (1 mm, 1 rad) its group's estimated factor multiplies."""
     return 1.0 if sigma == "auto" else float(sigma)
-
-
-def symbols(parameters: ParameterSet, pd: ca.SX) -> dict[str, ca.SX]:
-    """Name -> element of the device parameter symbol."""
-    return dict(zip(parameters.names, ca.vertsplit(pd)))
 
 
 def position(pose: ca.SX) -> ca.SX:

@@ -34,10 +34,10 @@ from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, parameter_set, pose_entries
-from armcal.spec.base import AngleParam, Length, LengthParam, Number, SpecModel, fixed
-from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma
-from armcal.spec.robot import Pose
-from armcal.spec.starter import flange_point, mm, random_poses
+from armcal.spec_parts.base import AngleParam, Length, LengthParam, Number, SpecModel, fixed
+from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma
+from armcal.spec_parts.robot import Pose
+from armcal.spec_parts.starter import flange_point, mm, random_poses
 
 CONTACT = (Channel("contact", "length"),)
 PLANE_FIELDS = ("offset", "tilt1", "tilt2")

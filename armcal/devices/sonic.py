@@ -28,10 +28,10 @@ from armcal.errors import UserError
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, point_entries, pose_entries
 from armcal.kinematics.transforms import xyz_zyx
-from armcal.spec.base import Length, Number, ScaleParam, SpecModel, fixed
-from armcal.spec.starter import mm
-from armcal.spec.instrument import AUTO, ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, Point, is_auto
-from armcal.spec.robot import Pose
+from armcal.spec_parts.base import Length, Number, ScaleParam, SpecModel, fixed
+from armcal.spec_parts.starter import mm
+from armcal.spec_parts.instrument import AUTO, ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, Point, is_auto
+from armcal.spec_parts.robot import Pose
 
 PRIMARY = ("A", "B", "C")  # microphones used to triangulate (s_1, s_2, s_3 of 6.1-6.6)
 ROOM_TEMPERATURE = 21.1  # degC, 70 F: the sonic digitizer's nominal conditions
@@ -105,8 +105,6 @@ def compensate(
     Overall correction by the mean ratio (E.5) gives a first triangulation whose
     height sets the ratio at the target; each range is then solved from (E.3).
     """
-    from armcal.devices.sonic import PRIMARY, microphone_distances, triangulate
-
     up = vertical(microphones)
     names = list(rods)
     if len(names) == 1:

@@ -21,9 +21,9 @@ from pydantic import Field
 from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.kinematics import ik
 from armcal.kinematics.params import ParameterSet, point_entries
-from armcal.spec.base import Length, SpecModel
-from armcal.spec.starter import flange_point, mm
-from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
+from armcal.spec_parts.base import Length, SpecModel
+from armcal.spec_parts.starter import flange_point, mm
+from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
 
 RESIDUALS = tuple(Channel(c, "length") for c in ("dx", "dy", "dz"))
 DISTANCE = "distance"  # the first element of a certified distance's key

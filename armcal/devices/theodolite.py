@@ -19,10 +19,10 @@ from pydantic import Field
 from armcal.devices.base import Channel, DeviceModel, Key, declared, transform_point
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, pose_entries
-from armcal.spec.base import Length, SpecModel
-from armcal.spec.starter import mm, flange_point, random_poses
-from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, AngleSigma, DeviceSpec, Point
-from armcal.spec.robot import Pose
+from armcal.spec_parts.base import Length, SpecModel
+from armcal.spec_parts.starter import mm, flange_point, random_poses
+from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, AngleSigma, DeviceSpec, Point
+from armcal.spec_parts.robot import Pose
 
 BAR_ENDS = ("scale_bar.end1", "scale_bar.end2")
 BAR_LENGTH: Key = ("scale_bar",)

@@ -25,10 +25,10 @@ from armcal.effects.library import EffectSpec
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.kinematics.transforms import POSE_FIELDS, pose_from_matrix, rigid_registration
-from armcal.spec.base import ScaleParam, SpecModel, fixed
-from armcal.spec.starter import mm, flange_point, random_poses
-from armcal.spec.instrument import ESTIMATE_HELP, GROUPS_HELP, AngleSigma, DeviceSpec, LengthSigma
-from armcal.spec.robot import Pose
+from armcal.spec_parts.base import ScaleParam, SpecModel, fixed
+from armcal.spec_parts.starter import mm, flange_point, random_poses
+from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, AngleSigma, DeviceSpec, LengthSigma
+from armcal.spec_parts.robot import Pose
 
 POSITION = tuple(Channel(c, "length") for c in ("x", "y", "z"))
 ORIENTATION = tuple(Channel(c, "angle") for c in ("rx", "ry", "rz"))

@@ -28,17 +28,30 @@ ball-bar's length, a displacement of one pivot.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import casadi as ca
 import numpy as np
 
-from armcal.devices.base import DeviceModel, Key, symbols
 from armcal.effects.library import AXIS_WEIGHT, EffectSpec, LumpedMass, moment_link
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
 
 GRAVITY = (0.0, 0.0, -9.81)  # m/s^2 in the robot base frame (z up)
 DEFAULT_LINK_MASS = 5.0  # kg at each link frame's origin when an effect names no masses
+
+
+class Instrument(Protocol):
+    """What the measurement model asks of an instrument: armcal/devices/base.py's DeviceModel, which builds on this
+    module (its ``key``: which target, pivot, station... a sample is read on)."""
+
+    parameters: ParameterSet
+
+    def channels(self, key: tuple) -> tuple: ...
+
+    def target(self, key: tuple) -> str | None: ...
+
+    def geometry(self, key: tuple) -> ca.Function: ...
 
 
 def extras_size(dof: int) -> int:
@@ -198,7 +211,7 @@ class EffectSet:
         lengths = ca.DM([1.0 if e.kind == "length" else 0.0 for e in kinematics.parameters.entries])
         return p + (self.length_factor(x, v, kinematics.dof) - 1) * (p * lengths)
 
-    def device_parameters(self, device: DeviceModel, pd, v: dict):
+    def device_parameters(self, device: Instrument, pd, v: dict):
         """pd with pivot offsets added."""
         shift = [0] * len(device.parameters)
         for e in self.effects:
@@ -207,7 +220,7 @@ class EffectSet:
                     shift[device.parameters.index(f"pivot.{e.pivot}.{c}")] = v[f"{e.id}.{c}"]
         return pd + ca.vertcat(*shift)
 
-    def readings(self, device: DeviceModel, key: Key, y, v: dict):
+    def readings(self, device: Instrument, key: tuple, y, v: dict):
         """Readings with the instrument-side effects: scale, range bias, ball-bar length offset."""
         channels = device.channels(key)
         parts = [y[i] for i in range(len(channels))]
@@ -220,13 +233,13 @@ class EffectSet:
                 parts = [r + v[f"{e.id}.offset"] for r in parts]
         return ca.vertcat(*parts)
 
-    def measurement_function(self, kinematics: KinematicModel, device: DeviceModel, key: Key) -> ca.Function:
+    def measurement_function(self, kinematics: KinematicModel, device: Instrument, key: tuple) -> ca.Function:
         """h(q, x, p, pd, pe): the device's readings of a key's target, with every effect."""
         n = kinematics.dof
         q, x = ca.SX.sym("q", n), ca.SX.sym("x", extras_size(n))
         p, pd = ca.SX.sym("p", len(kinematics.parameters)), ca.SX.sym("pd", len(device.parameters))
         pe = ca.SX.sym("pe", len(self.parameters))
-        v = symbols(self.parameters, pe)
+        v = self.parameters.symbols(pe)
         target = device.target(key)
         if target is None:
             pose = ca.SX.eye(4)
@@ -242,7 +255,7 @@ class EffectSet:
         n = kinematics.dof
         q, x = ca.SX.sym("q", n), ca.SX.sym("x", extras_size(n))
         p, pe = ca.SX.sym("p", len(kinematics.parameters)), ca.SX.sym("pe", len(self.parameters))
-        v = symbols(self.parameters, pe)
+        v = self.parameters.symbols(pe)
         deviation = self.joint_values(kinematics, q, x, p, v) - q
         return ca.Function("effects", [q, x, p, pe], [deviation, self.length_factor(x, v, n)])
 
@@ -250,17 +263,17 @@ class EffectSet:
         """pe at the effects' own values (a simulation's hidden amplitudes)."""
         return self.parameters.nominal
 
-    def reading_function(self, device: DeviceModel, key: Key) -> ca.Function:
+    def reading_function(self, device: Instrument, key: tuple) -> ca.Function:
         """(y, pe) -> readings with the instrument-side effects, for the simulator."""
         y = ca.SX.sym("y", len(device.channels(key)))
         pe = ca.SX.sym("pe", len(self.parameters))
-        return ca.Function("readings", [y, pe], [self.readings(device, key, y, symbols(self.parameters, pe))])
+        return ca.Function("readings", [y, pe], [self.readings(device, key, y, self.parameters.symbols(pe))])
 
-    def device_parameter_function(self, device: DeviceModel) -> ca.Function:
+    def device_parameter_function(self, device: Instrument) -> ca.Function:
         """(pd, pe) -> pd with pivot offsets, for the simulator."""
         pd = ca.SX.sym("pd", len(device.parameters))
         pe = ca.SX.sym("pe", len(self.parameters))
-        return ca.Function("pivots", [pd, pe], [self.device_parameters(device, pd, symbols(self.parameters, pe))])
+        return ca.Function("pivots", [pd, pe], [self.device_parameters(device, pd, self.parameters.symbols(pe))])
 
 
 def gravity_torque_function(kinematics: KinematicModel) -> ca.Function:

@@ -18,7 +18,7 @@ import numpy as np
 
 from armcal.effects.measurement import DEFAULT_LINK_MASS, gravity_torque_function
 from armcal.evaluate.residuals import ARCSEC, residual_unit
-from armcal.spec.robot import joint_kind
+from armcal.kinematics.params import joint_kind
 from armcal.units import factor
 
 BINS = 18

@@ -28,7 +28,7 @@ from scipy.stats import qmc
 from armcal.kinematics.compiler import KinematicModel, compile_robot
 from armcal.evaluate.multiple_testing import holm
 from armcal.spec import load_spec
-from armcal.spec.robot import joint_kind
+from armcal.kinematics.params import joint_kind
 from armcal.units import factor
 
 POSES = 50

@@ -17,7 +17,7 @@ from pydantic import BaseModel, ValidationError
 from armcal import units
 from armcal.errors import UserError
 from armcal.kinematics.compiler import compile_robot
-from armcal.spec.base import Parameter
+from armcal.spec_parts.base import Parameter
 from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
 from armcal.spec.sections import Simulate

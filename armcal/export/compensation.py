@@ -29,7 +29,7 @@ from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel, compile_robot
 from armcal.kinematics.transforms import pose_from_matrix, xyz_zyx
 from armcal.spec import LoadedSpec
-from armcal.spec.robot import joint_kind
+from armcal.kinematics.params import joint_kind
 from armcal.units import factor, to_internal
 
 COMPENSATED = ("encoder_scale", "gear_harmonic", "joint_compliance", "joint_coupling")  # functions of the joints alone

@@ -23,7 +23,7 @@ import numpy as np
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, pose_from_matrix, rot_x, rot_y, rot_z, trans
 from armcal.spec.document import Spec
-from armcal.spec.robot import RobotBase
+from armcal.spec_parts.robot import RobotBase
 
 CHECKS = 20  # random configurations at which the URDF's motion is compared with the chain's
 TOLERANCE = 1e-9  # mm (and unit rotation entries): a joint moving otherwise is not Rot(z, q) about F_(i-1)

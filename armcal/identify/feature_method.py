@@ -19,7 +19,7 @@ from armcal.kinematics.smodel import DHRow
 from armcal.kinematics.transforms import inverse, pose_from_matrix, xyz_zyx
 from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
-from armcal.spec.robot import DHRobot
+from armcal.spec_parts.robot import DHRobot
 
 POSE = ("x", "y", "z", "rz", "ry", "rx")
 

@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from armcal.errors import Issue
 from armcal.kinematics.compiler import compile_robot
-from armcal.spec.loader import LoadedSpec, located_issues
 
 ON_AXIS = 1.0  # mm: a target nearer its joint's axis than this moves less than 1 mm per radian of the joint
 
@@ -35,12 +33,3 @@ def targets_on_axes(spec) -> list[tuple[str, int, float]]:
         if distance < ON_AXIS:
             found.append((name, link, distance))
     return found
-
-
-def axis_warnings(loaded: LoadedSpec) -> list[Issue]:
-    """One located warning per target on its joint's axis (``targets_on_axes``)."""
-    return located_issues(loaded, [
-        (("robot", "targets", name), f"{distance:.1f} mm from joint {joint}'s axis: the point does not move when joint {joint} turns, "
-                                     f"so its readings say nothing of that joint; place it off the axis (docs/devices/tracker.md)")
-        for name, joint, distance in targets_on_axes(loaded.spec)
-    ])

@@ -1,4 +1,5 @@
-"""Compile a spec robot into CasADi forward-kinematics Functions.
+"""Compile a spec robot into CasADi forward-kinematics Functions (kinematics reads the robot section by its fields and
+imports no spec module: docs/architecture.md).
 
 Every convention is assembled as one chain: F_0 = base (times Goswami's first
 link), F_i = F_{i-1} A_i(q_i), tool = F_n * tool. The z axis of F_{i-1} is
@@ -16,7 +17,6 @@ from armcal.kinematics import conventions
 from armcal.kinematics.masses import LumpedMass
 from armcal.kinematics.params import LINK_FIELDS, ParameterSet, parameter_set
 from armcal.kinematics.transforms import compose, trans, xyz_zyx
-from armcal.spec.robot import RobotBase
 
 
 @dataclass(frozen=True)
@@ -73,11 +73,12 @@ def _batch(function: ca.Function, Q: np.ndarray, p: np.ndarray) -> np.ndarray:
     return out.reshape(4, n_samples, 4).transpose(1, 0, 2)
 
 
-def compile_robot(robot: RobotBase) -> KinematicModel:
-    """Build the symbolic chain of a spec robot and wrap it in CasADi Functions."""
+def compile_robot(robot) -> KinematicModel:
+    """Build the symbolic chain of a spec robot (the spec's ``robot`` section, read by its fields) and wrap it in
+    CasADi Functions."""
     parameters = parameter_set(robot)
     p = ca.SX.sym("p", len(parameters))
-    symbol = dict(zip(parameters.names, ca.vertsplit(p)))
+    symbol = parameters.symbols(p)
     q = ca.SX.sym("q", robot.dof)
     joint_types = tuple(j.type for j in robot.joints)  # type: ignore[attr-defined]
     first, links = _chain(robot, symbol, ca.vertsplit(q), joint_types)
@@ -116,7 +117,7 @@ def pose_from_symbols(symbol: dict, prefix: str):
     return xyz_zyx(get("x"), get("y"), get("z"), get("rz"), get("ry"), get("rx"))
 
 
-def _chain(robot: RobotBase, symbol: dict, q: list, joint_types: tuple[str, ...]):
+def _chain(robot, symbol: dict, q: list, joint_types: tuple[str, ...]):
     """(first, [A_1..A_n]): the constant transform after the base and each joint's link transform."""
     names = robot.joint_names()
     convention = robot.convention  # type: ignore[attr-defined]

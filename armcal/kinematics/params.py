@@ -8,11 +8,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import casadi as ca
 import numpy as np
 
 from armcal.kinematics.parallel_axes import parallel_axes
-from armcal.spec.base import Parameter
-from armcal.spec.robot import RobotBase, SixParameterRobot, Tolerance, joint_kind
 from armcal.units import INTERNAL_UNIT
 
 POSE_FIELDS = ("x", "y", "z", "rx", "ry", "rz")
@@ -25,6 +24,11 @@ JOINT_FIELDS = {
 }
 _LENGTHS = {"x", "y", "z", "d", "a", "b"}
 _SCALES = {"k"}
+
+
+def joint_kind(joint_type: str) -> str:
+    """Kind of a joint's own variable: angle for revolute, length for prismatic."""
+    return "angle" if joint_type == "revolute" else "length"
 
 
 def field_kind(field: str, joint_type: str = "revolute") -> str:
@@ -80,6 +84,10 @@ class ParameterSet:
     def values(self, p: np.ndarray) -> dict[str, float]:
         return dict(zip(self.names, np.asarray(p, dtype=float)))
 
+    def symbols(self, vector: ca.SX) -> dict[str, ca.SX]:
+        """Name -> element of a symbol vector of these parameters."""
+        return dict(zip(self.names, ca.vertsplit(vector)))
+
 
 def parameter_entry(name: str, kind: str, parameter: Parameter) -> ParameterInfo:
     """The entry of one spec parameter."""
@@ -101,8 +109,9 @@ def point_entries(prefix: str, points: dict) -> list[ParameterInfo]:
     return [entry for name, point in points.items() for entry in pose_entries(f"{prefix}.{name}", point, ("x", "y", "z"))]
 
 
-def parameter_set(robot: RobotBase) -> ParameterSet:
-    """All parameters of a spec robot in chain order: base, joints (and links), tool, targets.
+def parameter_set(robot) -> ParameterSet:
+    """All parameters of a spec robot (the spec's ``robot`` section, read by its fields) in chain order: base, joints
+    (and links), tool, targets.
 
     A ``dh`` joint has Hayati's beta where the spec gives one or its axis is parallel to
     the next (kinematics/parallel_axes.py), with its d then held."""
@@ -110,21 +119,23 @@ def parameter_set(robot: RobotBase) -> ParameterSet:
     fields = JOINT_FIELDS[robot.convention]  # type: ignore[attr-defined]
     parallel = {p.joint: p for p in parallel_axes(robot)}
     for i, (name, joint) in enumerate(zip(robot.joint_names(), robot.joints), start=1):  # type: ignore[attr-defined]
-        if isinstance(robot, SixParameterRobot):
+        if robot.convention == "six_parameter":
             entries += pose_entries(f"L{i}", robot.links[i - 1], LINK_FIELDS)
         joint_entries = [parameter_entry(f"{name}.{f}", field_kind(f, joint.type), getattr(joint, f)) for f in fields]
         if robot.convention == "dh" and (joint.beta is not None or i in parallel):
-            beta = joint.beta if joint.beta is not None else Parameter(value=0.0)
-            joint_entries.append(parameter_entry(f"{name}.beta", "angle", beta))
+            if joint.beta is None:  # a parallel axis: Hayati's beta, free from 0
+                joint_entries.append(ParameterInfo(f"{name}.beta", "angle", 0.0, True, None, None))
+            else:
+                joint_entries.append(parameter_entry(f"{name}.beta", "angle", joint.beta))
         if i in parallel and parallel[i].d_held:
             d = fields.index("d")
             joint_entries[d] = replace(joint_entries[d], free=False, reason=parallel[i].reason)
         entries += joint_entries
-    if isinstance(robot, SixParameterRobot):
+    if robot.convention == "six_parameter":
         entries += pose_entries(f"L{robot.dof + 1}", robot.links[robot.dof], LINK_FIELDS)
     entries += pose_entries("tool", robot.tool)
     for name, target in robot.targets.items():
         entries += [replace(e, role="target") for e in pose_entries(name, target)]
-    tolerance = robot.tolerance or Tolerance()
+    tolerance = robot.plausible_deviations
     plausible = {"length": tolerance.length, "angle": tolerance.angle, "scale": tolerance.scale}
     return ParameterSet(tuple(replace(e, tolerance=plausible.get(e.kind)) for e in entries))

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from armcal.spec import LoadedSpec
-from armcal.spec.robot import joint_kind
+from armcal.kinematics.params import joint_kind
 from armcal.units import from_internal
 
 

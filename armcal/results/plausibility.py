@@ -18,7 +18,6 @@ import math
 import numpy as np
 
 from armcal.spec.document import Spec
-from armcal.spec.robot import Tolerance
 from armcal.units import from_internal
 
 JUDGED = ("length", "angle", "scale")
@@ -39,7 +38,7 @@ def status_words(status: str, plausibility) -> str:
 def plausibility(spec: Spec, entries, values: np.ndarray, std: np.ndarray, identified: set[str]) -> dict:
     """results.json's `plausibility`: the tolerances in the spec's units (and whether the spec gave them) and the
     identified robot values beyond them."""
-    tolerance = spec.robot.tolerance or Tolerance()
+    tolerance = spec.robot.plausible_deviations
     limit = {"length": tolerance.length, "angle": tolerance.angle, "scale": tolerance.scale}
     unit = {kind: spec.robot.units.of(kind) for kind in JUDGED}
     shown = lambda value, kind: from_internal(float(value), kind, unit[kind])  # noqa: E731

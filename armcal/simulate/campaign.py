@@ -17,7 +17,7 @@ import numpy as np
 
 from armcal.dataio.measurements import Measurements
 from armcal.errors import UserError
-from armcal.spec.instrument import AUTO
+from armcal.spec_parts.instrument import AUTO
 from armcal.devices import device_model
 from armcal.devices.base import DeviceModel, held_in_contact
 from armcal.kinematics.compiler import compile_robot

@@ -1,18 +1,10 @@
-"""Spec language: pydantic models of a calibration spec and their YAML loading.
+"""Spec language: the whole calibration spec as pydantic models, its YAML loading, checks and JSON Schema.
 
-``load_spec``, ``LoadedSpec`` and ``Spec`` load on first use: the device section is the
-instruments' (armcal/devices/), whose modules import the spec's building blocks from here.
+The parts the instruments build their sections on are armcal/spec_parts/; the ``device`` union is the
+instruments' (armcal/devices/registry.py).
 """
 
-from __future__ import annotations
+from armcal.spec.document import Spec
+from armcal.spec.loader import LoadedSpec, load_spec
 
-import importlib
-
-_EXPORTS = {"LoadedSpec": "armcal.spec.loader", "load_spec": "armcal.spec.loader", "Spec": "armcal.spec.document"}
-__all__ = list(_EXPORTS)
-
-
-def __getattr__(name: str):
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'armcal.spec' has no attribute {name!r}")
-    return getattr(importlib.import_module(_EXPORTS[name]), name)
+__all__ = ["LoadedSpec", "Spec", "load_spec"]

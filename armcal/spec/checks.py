@@ -12,7 +12,7 @@ from armcal.devices.registry import accepting, instruments_where
 from armcal.errors import either, shown_value, with_article
 from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
-from armcal.spec.robot import SixParameterRobot
+from armcal.spec_parts.robot import SixParameterRobot
 from armcal.spec.effect_vocabulary import JointBending, JointCompliance, JointCoupling
 
 Loc = tuple[str | int, ...]

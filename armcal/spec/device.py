@@ -1,7 +1,7 @@
 """The ``device`` section: the measuring instrument, one of the registry's, discriminated on ``type``.
 
 Each instrument's section is declared in its module under armcal/devices/; what they
-share (noise sigmas or auto, noise groups, the instrument's identity) in spec/instrument.py.
+share (noise sigmas or auto, noise groups, the instrument's identity) in spec_parts/instrument.py.
 """
 
 from __future__ import annotations

@@ -6,10 +6,10 @@ from typing import Literal
 
 from pydantic import Field
 
-from armcal.spec.base import SpecModel
+from armcal.spec_parts.base import SpecModel
 from armcal.spec.device import DEVICE_TYPES, Device
 from armcal.spec.procedure import Procedure
-from armcal.spec.robot import Robot
+from armcal.spec_parts.robot import Robot
 from armcal.spec.effect_vocabulary import Effect
 from armcal.spec.sections import STANDS_FOR, Acceptance, Data, Diagnose, Fit, Placeholders, Report, Simulate
 

@@ -24,7 +24,7 @@ from armcal.errors import Issue, SpecError, shown_key, shown_value
 from armcal.fileio import read_input
 from armcal.spec.checks import check_spec
 from armcal.spec.document import Spec
-from armcal.spec.robot import joint_kind
+from armcal.kinematics.params import joint_kind
 from armcal.spec.schema import allowed_keys
 
 MAX_NODES = 200_000  # guards against alias ("billion laughs") expansion

@@ -6,7 +6,7 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import Field, ValidationInfo, WithJsonSchema, field_validator
 
-from armcal.spec.base import Angle, Length, SpecModel, convert, quantity_schema
+from armcal.spec_parts.base import Angle, Length, SpecModel, convert, quantity_schema
 
 
 def joint_values(raw: Any, info: ValidationInfo) -> Any:

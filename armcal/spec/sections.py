@@ -8,7 +8,7 @@ from typing import Annotated, Literal
 
 from pydantic import AfterValidator, Field, model_validator
 
-from armcal.spec.base import Angle, Length, Number, SpecModel
+from armcal.spec_parts.base import Angle, Length, Number, SpecModel
 from armcal.spec.effect_vocabulary import DEG, EFFECT_TYPES, Effect
 from armcal.units import LENGTH_UNITS
 

@@ -65,7 +65,7 @@ def test_batch_evaluation_equals_single_calls(puma_models):
 
 def test_prismatic_joint_translates_along_its_axis():
     from armcal.kinematics.compiler import compile_robot
-    from armcal.spec.robot import DHRobot
+    from armcal.spec_parts.robot import DHRobot
 
     robot = DHRobot.model_validate(
         {

@@ -10,7 +10,7 @@ from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.conventions import dh_link, smodel_link
 from armcal.kinematics.smodel import DHRow, dh_to_smodel, pseudo_dh, smodel_from_transform, smodel_to_dh
 from armcal.spec import load_spec
-from armcal.spec.robot import DHRobot, SModelRobot
+from armcal.spec_parts.robot import DHRobot, SModelRobot
 
 DEG = math.pi / 180.0
 TABLE_6_2 = [  # theta offset, d (mm), a (mm), alpha
@@ -98,7 +98,7 @@ def test_pseudo_dh_of_the_ideal_puma_is_table_6_2(puma_models):
 
 def _tilted_puma(tilt_about_y: float, tilt_about_x: float):
     """The Table 6-2 PUMA in mdh with joint 3's axis tilted out of parallel with joint 2's."""
-    from armcal.spec.robot import MDHRobot
+    from armcal.spec_parts.robot import MDHRobot
 
     joints = [{"limits": [-math.pi, math.pi], **row.__dict__} for row in TABLE_6_2]
     joints[1] = {**joints[1], "alpha": tilt_about_x, "beta": tilt_about_y}

@@ -67,7 +67,7 @@ def test_a_tolerance_from_the_spec_is_used_and_said():
     assert {v["name"]: v["why"] for v in plausibility(spec, entries, values, std, set(names))["implausible"]}["L3.x"] == "nominal"
     assert flagged["L3.x"]["deviation"] == pytest.approx(3.0) and flagged["L3.x"]["tolerance"] == pytest.approx(1.0)  # cm
     assert plausibility(spec, entries, values, std, set(names) - {"L3.x", "j2.theta0", "j3.k"})["implausible"] == []  # held: not judged
-    from armcal.spec.robot import Tolerance
+    from armcal.spec_parts.robot import Tolerance
 
     wide = spec.model_copy(update={"robot": spec.robot.model_copy(update={"tolerance": Tolerance(length="40 mm", angle="3 deg", scale=0.03)})})
     judged = plausibility(wide, parameter_set(wide.robot).entries, values, std, set(names))

@@ -19,7 +19,7 @@ from typing import Annotated, Any, ClassVar, Literal, Union
 from pydantic import Field, ValidationInfo, WithJsonSchema, WrapValidator, field_validator
 
 from armcal.errors import shown_value
-from armcal.spec.base import LengthParam, SpecModel, convert, quantity_schema
+from armcal.spec_parts.base import LengthParam, SpecModel, convert, quantity_schema
 
 AUTO = "auto"  # a noise sigma estimated from the data
 

@@ -15,7 +15,8 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import Field, ValidationInfo, WithJsonSchema, field_validator
 
 from armcal import units
-from armcal.spec.base import (
+from armcal.kinematics.params import joint_kind
+from armcal.spec_parts.base import (
     Angle,
     AngleParam,
     Length,
@@ -33,11 +34,6 @@ from armcal.spec.base import (
 JointQuantity = Annotated[float, WithJsonSchema(quantity_schema("angle", "length"))]
 
 JointType = Literal["revolute", "prismatic"]
-
-
-def joint_kind(joint_type: str) -> str:
-    """Kind of a joint's own variable: angle for revolute, length for prismatic."""
-    return "angle" if joint_type == "revolute" else "length"
 
 
 class Units(SpecModel):
@@ -243,6 +239,11 @@ class RobotBase(SpecModel):
 
     def joint_names(self) -> list[str]:
         return [j.name or f"j{i}" for i, j in enumerate(self.joints, start=1)]  # type: ignore[attr-defined]
+
+    @property
+    def plausible_deviations(self) -> Tolerance:
+        """``tolerance``, else its defaults."""
+        return self.tolerance or Tolerance()
 
     def link_names(self) -> list[str]:
         """The URDF names of the world, links 1..n and the tool: robot.urdf's, else world, link_1 .. link_n, tool0."""

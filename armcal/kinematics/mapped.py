@@ -18,7 +18,7 @@ class Mapped:
     """``function`` at N points: inputs listed in ``shared`` are one value for all points, the others one row a point."""
 
     def __init__(self, function: ca.Function, shared: tuple[int, ...] = ()):
-        self.function, self.shared, self.mappings = function, shared, {}
+        self.function, self.shared, self.mappings = _dense(function), shared, {}
 
     def __call__(self, *inputs: np.ndarray) -> list[np.ndarray]:
         """Each output (N, columns, rows): a point's output matrix in CasADi's column-major order (a column vector's
@@ -48,3 +48,12 @@ class Mapped:
             reduce_in = [i in self.shared for i in range(self.function.n_in())]
             self.mappings[size] = self.function.map(size, reduce_in, [False] * self.function.n_out())
         return self.mappings[size]
+
+
+def _dense(function: ca.Function) -> ca.Function:
+    """``function`` with every output dense: a buffer holds an output's structural nonzeros only (a Jacobian's zeros
+    are left out), so a sparse output is widened to its matrix first. Its inputs are dense vectors."""
+    if all(function.sparsity_out(i).is_dense() for i in range(function.n_out())):
+        return function
+    inputs = [ca.MX.sym(function.name_in(i), function.size_in(i)) for i in range(function.n_in())]
+    return ca.Function(f"{function.name()}_dense", inputs, [ca.densify(output) for output in function(*inputs)])

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.stats import t as student_t
+from scipy.special import stdtrit  # Student's t quantile (scipy.stats.t.ppf's own); scipy.stats imports slowly
 
 from armcal.errors import UserError
 from armcal.evaluate.residuals import distance_errors, readings_by_sample, residual_unit
@@ -61,7 +61,7 @@ def acceptance_block(acceptance, validation, theta: np.ndarray, reading_kind: st
     guarded = acceptance.decision_rule == "guarded"
     if guarded and not math.isfinite(u):
         raise UserError("acceptance.decision_rule: guarded acceptance needs at least two held-out poses for the figure's uncertainty")
-    k = float(student_t.ppf(0.5 + COVERAGE / 2, poses - 1)) if guarded else None
+    k = float(stdtrit(poses - 1, 0.5 + COVERAGE / 2)) if guarded else None
     expanded = k * u if guarded else None
     limit = acceptance.tolerance - expanded if guarded else acceptance.tolerance
     return {

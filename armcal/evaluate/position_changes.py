@@ -23,7 +23,6 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 from scipy.special import chdtrc
-from scipy.stats import qmc
 
 from armcal.kinematics.compiler import KinematicModel, compile_robot
 from armcal.evaluate.multiple_testing import holm
@@ -82,6 +81,8 @@ def run_model(folder: Path, results: dict) -> RunModel | None:
 
 def poses(box: np.ndarray, count: int = POSES) -> np.ndarray:
     """``count`` poses (rad, mm) spread over ``box`` (dof, 2): points 1..count of the unscrambled Halton sequence."""
+    from scipy.stats import qmc  # here: scipy.stats takes seconds to import, and only compare needs it
+
     low, high = box.T
     return low + qmc.Halton(d=len(box), scramble=False).random(count + 1)[1:] * (high - low)
 

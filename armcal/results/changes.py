@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from scipy.stats import norm
+from scipy.special import ndtr  # the normal distribution function (scipy.stats.norm.sf's own); scipy.stats imports slowly
 
 from armcal.errors import UserError, shown_text
 from armcal.evaluate.multiple_testing import ALPHA, holm
@@ -115,6 +115,6 @@ def changes(old: list[dict], new: list[dict], old_basis: Basis = NO_BASIS, new_b
         rows.append(Change(name, unit, q and q["value"], p and p["value"], None if why else (p["value"] - q["value"]) / spread,
                            not_comparable="; ".join(why) or None))
     tested = [i for i, c in enumerate(rows) if c.z is not None]
-    for i, rejected in zip(tested, holm([2.0 * norm.sf(abs(rows[i].z)) for i in tested])):
+    for i, rejected in zip(tested, holm([2.0 * ndtr(-abs(rows[i].z)) for i in tested])):
         rows[i] = replace(rows[i], significant=rejected)
     return rows

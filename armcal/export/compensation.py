@@ -25,9 +25,11 @@ from armcal.effects.library import from_spec
 from armcal.effects.measurement import EffectSet, extras_size
 from armcal.errors import Issue, SpecError, shown_text
 from armcal.fileio import csv_text
+from armcal.identify.compiled import compiled
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel, compile_robot
-from armcal.kinematics.transforms import pose_from_matrix, xyz_zyx
+from armcal.kinematics.mapped import Mapped
+from armcal.kinematics.transforms import pose_from_matrix, xyz_zyx_stacked
 from armcal.spec import LoadedSpec
 from armcal.kinematics.params import joint_kind
 from armcal.units import factor, to_internal
@@ -55,7 +57,7 @@ def _targets(text: str, name: str, spec) -> tuple[list[str], np.ndarray, np.ndar
     labels = [names[r] or str(r + 1) for r in range(count)]
     _unique(labels, Path(name))
     x, y, z, rx, ry, rz = (values[c] for c in POSE)
-    goals = ik.pose_goals(np.array([np.array(ca.DM(xyz_zyx(*pose))) for pose in zip(x, y, z, rz, ry, rx)]))
+    goals = ik.pose_goals(xyz_zyx_stacked(x, y, z, rz, ry, rx))
     seeds = np.stack([values.get(c, np.full(count, np.nan)) for c in joints], axis=1)
     return labels, goals, seeds
 
@@ -72,12 +74,17 @@ def _unique(labels: list[str], path: Path) -> None:
         raise SpecError(repeated[:MAX_ISSUES])
 
 
-def _deviation(kinematics: KinematicModel, effects: EffectSet):
-    """q -> Delta(q) of the joint-side effects (rows of Q)."""
-    function = effects.joint_deviation_function(kinematics)
-    x = np.zeros(extras_size(kinematics.dof))
-    p, pe = kinematics.parameters.nominal, effects.values()
-    return lambda Q: np.array(function.map(len(Q))(Q.T, x, p, pe)[0]).T.reshape(Q.shape)
+def _deviation(function: ca.Function, kinematics: KinematicModel, effects: EffectSet):
+    """Q (N, n) -> Delta(Q) of the joint-side effects; ``function``: their joint_deviation_function."""
+    mapped = Mapped(function, shared=(1, 2, 3))
+    x, p, pe = np.zeros(extras_size(kinematics.dof)), kinematics.parameters.nominal, effects.values()
+    return lambda Q: mapped(Q, x, p, pe)[0][:, 0]
+
+
+def _poses(fk: ca.Function):
+    """(Q (N, n), p) -> tool poses (N, 4, 4); ``fk``: the chain's (KinematicModel.fk)."""
+    mapped = Mapped(fk, shared=(1,))
+    return lambda Q, p: mapped(Q, p)[0].transpose(0, 2, 1)
 
 
 def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targets_name: str) -> tuple[str, list[str], list[str]]:
@@ -88,8 +95,10 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     labels, goals, seeds = _targets(targets_text, targets_name, spec)
     effects = [from_spec(e) for e in spec.effects]
     left_out = sorted({e.id for e in effects if e.type not in COMPENSATED})
-    deviation = _deviation(kinematics, EffectSet(tuple(e for e in effects if e.type in COMPENSATED)))
-    reached, found = _solutions(kinematics, goals, seeds)
+    compensated = EffectSet(tuple(e for e in effects if e.type in COMPENSATED))
+    error_function, fk, deviation_function = compiled([ik.error_function(kinematics), kinematics.fk, compensated.joint_deviation_function(kinematics)])
+    deviation, poses = _deviation(deviation_function, kinematics, compensated), _poses(fk)
+    reached, found = _solutions(kinematics, goals, seeds, error_function)
     command = reached.copy()
     for _ in range(FIXED_POINT_STEPS):
         previous, command = command, reached - deviation(command)
@@ -97,13 +106,14 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
             break
     inside = ik.within_limits(kinematics, command)
     error = np.full(len(goals), np.nan)
-    actual = kinematics.tool_poses(command + deviation(command))
+    actual = poses(command + deviation(command), kinematics.parameters.nominal)
     error[found] = np.linalg.norm(actual[found, :3, 3] - goals[found, :3], axis=1)
     nominal = _nominal(kinematics, results)
-    corrected = kinematics.tool_poses(command, nominal) if nominal is not None else None
+    corrected = poses(command, nominal) if nominal is not None else None
     units = spec.robot.units
     header = ["name", "status", *(j for j, _ in joints), "position_error_mm"] + ([f"corrected_{c}" for c in POSE] if corrected is not None else [])
     rows, unreached = [header], []
+    joint_units = [factor(joint_kind(kind), units.of(joint_kind(kind))) for _, kind in joints]
     for i, label in enumerate(labels):
         status = "ok" if found[i] and inside[i] and error[i] < REACHED else (
             "unreachable: outside the joint limits" if found[i] and not inside[i] else
@@ -111,7 +121,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
         if status != "ok":
             unreached.append(f"{shown_text(label, f'row {i + 1}: a name')} ({status[13:]})")
         row = [label, status]
-        row += [f"{command[i, j] / factor(joint_kind(kind), units.of(joint_kind(kind))):.12g}" if found[i] else "" for j, (_, kind) in enumerate(joints)]
+        row += [f"{command[i, j] / unit:.12g}" if found[i] else "" for j, unit in enumerate(joint_units)]
         row.append(f"{error[i]:.3g}" if found[i] else "")
         if corrected is not None and not found[i]:
             row += [""] * len(POSE)
@@ -122,16 +132,16 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     return csv_text(rows), unreached, left_out
 
 
-def _solutions(kinematics: KinematicModel, goals: np.ndarray, seeds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _solutions(kinematics: KinematicModel, goals: np.ndarray, seeds: np.ndarray, error: ca.Function) -> tuple[np.ndarray, np.ndarray]:
     """(q* (N, n), found (N,)): the joints that put the calibrated chain at each goal. A seeded goal starts from its seed
     (all at once); the others, in file order, from the solution of the target before them (ik.solve_in_order: the
     branch carries over, the wrist does not flip), and from the branch nearest the middle of the joint limits where
-    there is no such solution or it leads to none within the limits."""
+    there is no such solution or it leads to none within the limits. ``error``: ik.error_function, compiled."""
     count = len(goals)
     reached, found = np.zeros((count, kinematics.dof)), np.zeros(count, dtype=bool)
     seeded = ~np.isnan(seeds).any(axis=1)
     if seeded.any():
-        solved = ik.solve(kinematics, goals[seeded], seeds[seeded], halvings=ik.SAFE_HALVINGS)
+        solved = ik.solve(kinematics, goals[seeded], seeds[seeded], halvings=ik.SAFE_HALVINGS, error=error)
         reached[seeded], found[seeded] = _nearest_turn(kinematics, solved.q, seeds[seeded]), solved.converged
     i = 0
     while i < count:
@@ -140,22 +150,22 @@ def _solutions(kinematics: KinematicModel, goals: np.ndarray, seeds: np.ndarray)
             continue
         if i > 0 and found[i - 1]:
             end = i + int(np.argmax(np.append(seeded[i:], True)))  # the unseeded rows from i on
-            warm = ik.solve_in_order(kinematics, goals[i:end], reached[i - 1])
+            warm = ik.solve_in_order(kinematics, goals[i:end], reached[i - 1], error=error)
             reached[i : i + len(warm.q)], found[i : i + len(warm.q)] = warm.q, True
             i += len(warm.q)
             if i == end:
                 continue
-        reached[i], found[i] = _from_the_middle(kinematics, goals[i])
+        reached[i], found[i] = _from_the_middle(kinematics, goals[i], error)
         i += 1
     return reached, found
 
 
-def _from_the_middle(kinematics: KinematicModel, goal: np.ndarray) -> tuple[np.ndarray, bool]:
+def _from_the_middle(kinematics: KinematicModel, goal: np.ndarray, error: ca.Function) -> tuple[np.ndarray, bool]:
     """(q*, found) of one goal on the branch nearest the middle of the joint limits (ik.solve_from_starts)."""
-    start = _nearest_turn(kinematics, ik.solve_from_starts(kinematics, goal[None]), kinematics.limits.mean(axis=1)[None])
+    start = _nearest_turn(kinematics, ik.solve_from_starts(kinematics, goal[None], error=error), kinematics.limits.mean(axis=1)[None])
     if np.isnan(start).any():
         return np.zeros(kinematics.dof), False
-    solved = ik.solve(kinematics, goal[None], start, halvings=ik.SAFE_HALVINGS)
+    solved = ik.solve(kinematics, goal[None], start, halvings=ik.SAFE_HALVINGS, error=error)
     return _nearest_turn(kinematics, solved.q, start)[0], bool(solved.converged[0])
 
 

@@ -19,10 +19,14 @@ import casadi as ca
 import numpy as np
 
 from armcal.kinematics.compiler import KinematicModel
+from armcal.kinematics.mapped import Mapped
 
 DAMPING = 1e-6  # Levenberg damping of the Newton step, well below J^T J's scale near a solution
 SAFE_HALVINGS = 12  # for solve(halvings=...): a step that does not reduce the error is halved up to this many times
 TOL_POSITION, TOL_ROTATION, MAX_ITERATIONS = 1e-6, 1e-9, 40  # solve's defaults: mm, axis columns, Newton steps
+SAME_ROOT = 1e-6  # rad or mm: two solutions of one goal closer than this in every joint are one root (solve_in_order)
+MAX_BLOCK = 1024  # goals solve_in_order solves at once: bounds its arrays
+GUESS_ITERATIONS = 6  # Newton steps of solve_in_order's guesses: one that needs more is far from its start
 
 
 @dataclass(frozen=True)
@@ -33,8 +37,9 @@ class IKResult:
     rotation_error: np.ndarray  # (N,) norm of the axis-column differences (~ rad for small errors)
 
 
-def _error_function(model: KinematicModel, frame: str | None, full_pose: bool) -> ca.Function:
-    """delta(q, p, goal) and d delta / d q; goal = [p*, x*, y*, z*] (pose) or [p*, z*] (point + axis)."""
+def error_function(model: KinematicModel, frame: str | None = None, full_pose: bool = True) -> ca.Function:
+    """delta(q, p, goal) and d delta / d q; goal = [p*, x*, y*, z*] (pose) or [p*, z*] (point + axis). The solvers
+    build it for each call; a caller that solves many times may build it once (and compile it) and pass it as ``error``."""
     q = ca.SX.sym("q", model.dof)
     p = ca.SX.sym("p", len(model.parameters))
     T = model.fk(q, p) if frame is None else model.targets[frame](q, p)
@@ -55,35 +60,67 @@ def solve(
     tol_rotation: float = TOL_ROTATION,
     max_iterations: int = MAX_ITERATIONS,
     halvings: int = 0,
+    error: ca.Function | None = None,
 ) -> IKResult:
     """Solve N goals (N, 12) poses [p, x-axis, y-axis, z-axis] or (N, 6) [p, z-axis] from q0 (N, n) or (n,)."""
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
-    function = _error_function(model, frame, goals.shape[1] == 12)
-    return _newton(function, model.dof, goals, q0, model.parameter_vector(p), tol_position, tol_rotation, max_iterations, halvings)
+    function = error if error is not None else error_function(model, frame, goals.shape[1] == 12)
+    return _newton(_evaluator(function), model.dof, goals, q0, model.parameter_vector(p), tol_position, tol_rotation, max_iterations, halvings)
 
 
-def solve_in_order(model: KinematicModel, goals: np.ndarray, q0: np.ndarray, halvings: int = SAFE_HALVINGS) -> IKResult:
+def solve_in_order(model: KinematicModel, goals: np.ndarray, q0: np.ndarray, halvings: int = SAFE_HALVINGS,
+                   error: ca.Function | None = None) -> IKResult:
     """Solve goals one after another, each from the solution of the goal before it, the first from q0 (n,): a warm start
     that keeps one branch along a path of close goals (the wrist does not flip). Stops before the first goal not solved
-    within the joint limits from its predecessor's solution: the result holds the goals solved before it."""
+    within the joint limits from its predecessor's solution: the result holds the goals solved before it.
+
+    The chain is solved a block of goals at a time: each goal of the block from the block's start (the last solution),
+    a guess, and then each from the guess of the goal before it. Where that guess is its goal's chained solution
+    (the same root, within SAME_ROOT), the second solve is the chain's; the goals up to the first guess that found
+    another root are taken. The block doubles while every guess holds and shrinks to what held when one does not:
+    down to one goal, the chain itself, where neighbouring goals lie far apart."""
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
-    function = _error_function(model, None, goals.shape[1] == 12)
-    p, solved, q = model.parameters.nominal, [], np.asarray(q0, dtype=float)[None]
-    for goal in goals:
-        result = _newton(function, model.dof, goal[None], q, p, TOL_POSITION, TOL_ROTATION, MAX_ITERATIONS, halvings)
-        if not (result.converged[0] and within_limits(model, result.q)[0]):
+    function = _evaluator(error if error is not None else error_function(model, None, goals.shape[1] == 12))
+    p = model.parameters.nominal
+
+    def newton(rows: slice, q: np.ndarray, iterations: int = MAX_ITERATIONS, steps_halved: int = halvings) -> IKResult:
+        return _newton(function, model.dof, goals[rows], q, p, TOL_POSITION, TOL_ROTATION, iterations, steps_halved)
+
+    solved, start, done, block = [], np.asarray(q0, dtype=float), 0, 1
+    while done < len(goals):
+        rows = slice(done, min(len(goals), done + block))
+        guess = newton(rows, start, GUESS_ITERATIONS, 0)  # plain Newton steps: a guess that needs more is no guess
+        size = 1 + int(np.argmin(np.append(guess.converged[1:], False)))  # up to the first guess that did not converge
+        chained = newton(slice(done, done + size), np.vstack([start, guess.q[: size - 1]]))  # the first from its predecessor
+        other_root = np.flatnonzero(~(np.max(np.abs(chained.q[:-1] - guess.q[: size - 1]), axis=1) < SAME_ROOT))  # NaN: another
+        chain = size if not len(other_root) else int(other_root[0]) + 1  # goals solved from their predecessors' solutions
+        failed = np.flatnonzero(~(chained.converged[:chain] & within_limits(model, chained.q[:chain])))
+        taken = chain if not len(failed) else int(failed[0])
+        solved.append(_rows(chained, slice(0, taken)))
+        if taken < chain:
             break
-        solved.append(result)
-        q = result.q
-    empty = IKResult(np.zeros((0, model.dof)), np.zeros(0, dtype=bool), np.zeros(0), np.zeros(0))
-    return IKResult(*(np.concatenate([getattr(r, f.name) for r in (empty, *solved)]) for f in fields(IKResult)))
+        start, done = chained.q[taken - 1], done + taken
+        block = min(MAX_BLOCK, 2 * block) if taken == block else max(2, taken)
+    return _joined(_empty(model.dof), *solved)
+
+
+def _rows(result: IKResult, rows: slice) -> IKResult:
+    return IKResult(*(getattr(result, f.name)[rows] for f in fields(IKResult)))
+
+
+def _joined(*results: IKResult) -> IKResult:
+    return IKResult(*(np.concatenate([getattr(r, f.name) for r in results]) for f in fields(IKResult)))
+
+
+def _empty(dof: int) -> IKResult:
+    return IKResult(np.zeros((0, dof)), np.zeros(0, dtype=bool), np.zeros(0), np.zeros(0))
 
 
 def _newton(function, dof: int, goals: np.ndarray, q0: np.ndarray, p: np.ndarray, tol_position: float, tol_rotation: float,
             max_iterations: int, halvings: int) -> IKResult:
-    """Newton-Raphson (5.4) on the compiled error ``function`` for goals (N, m) from q0 (N, n) or (n,)."""
+    """Newton-Raphson (5.4) on the error ``function`` for goals (N, m) from q0 (N, n) or (n,)."""
     Q = np.array(np.broadcast_to(q0, (len(goals), dof)), dtype=float)
-    delta, J = _evaluate(function, Q, p, goals)
+    delta, J = function(Q, p, goals)
     for _ in range(max_iterations):
         rows = np.flatnonzero(~_done(delta, tol_position, tol_rotation) & np.isfinite(delta).all(axis=1))
         if not len(rows):
@@ -107,7 +144,7 @@ def _backtracked_step(function, p, goals, Q, delta, J, rows, step, halvings: int
     error = (delta[rows] ** 2).sum(axis=1)
     for halving in range(halvings + 1):
         trial = Q[rows] - step
-        trial_delta, trial_J = _evaluate(function, trial, p, goals[rows])
+        trial_delta, trial_J = function(trial, p, goals[rows])
         take = ((trial_delta**2).sum(axis=1) < error) | (halving == halvings)
         taken = rows[take]
         Q[taken], delta[taken], J[taken] = trial[take], trial_delta[take], trial_J[take]
@@ -116,11 +153,15 @@ def _backtracked_step(function, p, goals, Q, delta, J, rows, step, halvings: int
             return
 
 
-def _evaluate(function: ca.Function, Q: np.ndarray, p: np.ndarray, goals: np.ndarray):
-    """delta (N, m) and its Jacobian (N, m, n) for N configurations, one mapped call."""
-    delta, jac = function.map(len(Q))(Q.T, p, goals.T)
-    m = goals.shape[1]
-    return np.array(delta).T, np.array(jac).reshape(m, len(Q), Q.shape[1]).transpose(1, 0, 2)
+def _evaluator(function: ca.Function):
+    """(Q (N, n), p, goals (N, m)) -> delta (N, m) and its Jacobian (N, m, n): ``function`` (error_function) mapped."""
+    mapped = Mapped(function, shared=(1,))
+
+    def evaluate(Q: np.ndarray, p: np.ndarray, goals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        delta, jacobian = mapped(Q, p, goals)
+        return delta[:, 0], jacobian.transpose(0, 2, 1)
+
+    return evaluate
 
 
 def _done(delta: np.ndarray, tol_position: float, tol_rotation: float) -> np.ndarray:
@@ -179,6 +220,7 @@ def solve_from_starts(
     p: np.ndarray | None = None,
     starts: int = 12,
     seed: int = 0,
+    error: ca.Function | None = None,
 ) -> np.ndarray:
     """Configurations (M, n) reaching M goals within the joint limits; NaN rows where none does.
 
@@ -186,7 +228,7 @@ def solve_from_starts(
     configurations; of the solutions within limits the one closest to the middle
     is kept, so that neighbouring goals share one arm configuration.
     """
-    return solve_from_starts_why(model, goals, frame, p, starts, seed)[0]
+    return solve_from_starts_why(model, goals, frame, p, starts, seed, error)[0]
 
 
 UNSOLVED, OUTSIDE_LIMITS, SOLVED = 0, 1, 2  # solve_from_starts_why's outcomes per goal
@@ -199,6 +241,7 @@ def solve_from_starts_why(
     p: np.ndarray | None = None,
     starts: int = 12,
     seed: int = 0,
+    error: ca.Function | None = None,
 ) -> tuple[np.ndarray, np.ndarray, list[tuple[int, ...]]]:
     """``solve_from_starts`` and why a goal has no configuration: (Q (M, n), outcome (M,), blocking joints per goal).
 
@@ -212,7 +255,7 @@ def solve_from_starts_why(
     middle = (low + high) / 2
     seeds = np.vstack([middle, rng.uniform(low, high, (starts, model.dof))])
     count = len(goals)
-    result = solve(model, np.repeat(goals, len(seeds), axis=0), np.tile(seeds, (count, 1)), frame=frame, p=p, tol_position=1e-4, tol_rotation=1e-6)
+    result = solve(model, np.repeat(goals, len(seeds), axis=0), np.tile(seeds, (count, 1)), frame=frame, p=p, tol_position=1e-4, tol_rotation=1e-6, error=error)
     Q = wrap_into_limits(model, result.q)
     good = result.converged & within_limits(model, Q)
     distance = np.where(good, np.linalg.norm((Q - middle) / (high - low), axis=1), np.inf).reshape(count, len(seeds))

@@ -65,6 +65,20 @@ def xyz_zyx(x, y, z, rz, ry, rx):
     return compose(trans(x, y, z), rot_z(rz), rot_y(ry), rot_x(rx))
 
 
+def xyz_zyx_stacked(x, y, z, rz, ry, rx) -> np.ndarray:
+    """xyz_zyx of N poses at once, from arrays (N,): (N, 4, 4), numeric only."""
+    count = len(x)
+    out = np.array(np.broadcast_to(np.eye(4), (count, 4, 4)))
+    out[:, :3, 3] = np.stack([x, y, z], axis=1)
+    for axis, angle in ((2, rz), (1, ry), (0, rx)):
+        i, j = (axis + 1) % 3, (axis + 2) % 3  # Rot(axis) turns i towards j: rot_x (1, 2), rot_y (2, 0), rot_z (0, 1)
+        turn = np.array(np.broadcast_to(np.eye(4), (count, 4, 4)))
+        c, s = np.cos(angle), np.sin(angle)
+        turn[:, i, i], turn[:, j, j], turn[:, i, j], turn[:, j, i] = c, c, -s, s
+        out = out @ turn
+    return out
+
+
 def inverse(T: np.ndarray) -> np.ndarray:
     """Inverse of a numeric homogeneous transform."""
     R, p = T[:3, :3], T[:3, 3]

@@ -40,6 +40,7 @@ POSE_KINDS = dict(zip(POSE, ("length",) * 3 + ("angle",) * 3))  # the spec's len
 FIXED_POINT_STEPS = 50
 FIXED_POINT_TOLERANCE = 1e-13  # rad or mm
 REACHED = 1e-4  # mm (and the axis columns' difference): a target the calibrated robot reaches
+ERROR_DECIMALS = 9  # position_error_mm to the picometre, far below REACHED and ik's 1e-6 mm: no rounding noise printed
 
 
 def _targets(text: str, name: str, spec) -> tuple[list[str], np.ndarray, np.ndarray]:
@@ -122,7 +123,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
             unreached.append(f"{shown_text(label, f'row {i + 1}: a name')} ({status[13:]})")
         row = [label, status]
         row += [f"{command[i, j] / unit:.12g}" if found[i] else "" for j, unit in enumerate(joint_units)]
-        row.append(f"{error[i]:.3g}" if found[i] else "")
+        row.append(f"{error[i]:.{ERROR_DECIMALS}f}" if found[i] else "")
         if corrected is not None and not found[i]:
             row += [""] * len(POSE)
         elif corrected is not None:

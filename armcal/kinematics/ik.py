@@ -159,7 +159,11 @@ def _evaluator(function: ca.Function):
 
     def evaluate(Q: np.ndarray, p: np.ndarray, goals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         delta, jacobian = mapped(Q, p, goals)
-        return delta[:, 0], jacobian.transpose(0, 2, 1)
+        # In the memory order of Function.map's own outputs (delta (m, N), J (m, N, n)), viewed as (N, m) and
+        # (N, m, n): numpy's reductions and matmul in _newton add in an order that follows the memory layout, and
+        # another order changes the last bits, near a branch point the root reached, and so what simulate plans.
+        delta = np.ascontiguousarray(delta[:, 0].T).T
+        return delta, np.ascontiguousarray(jacobian.transpose(2, 0, 1)).transpose(1, 0, 2)
 
     return evaluate
 

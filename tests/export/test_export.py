@@ -183,12 +183,18 @@ def test_compensated_commands_recover_the_commands_that_made_the_targets(tmp_pat
     result = armcal_cli("compensate", str(spec_path), "--targets", str(tmp_path / "targets.csv"), "--out", str(tmp_path / "commands.csv"))
     assert result.returncode == 3, result.stderr  # a target unreachable: exit 3, every row written all the same
     assert "unreachable: far" in result.stdout
-    written = (tmp_path / "commands.csv").read_text()
+    with open(tmp_path / "commands.csv") as stream:
+        written = list(csv.DictReader(stream))
     allowed = armcal_cli("compensate", str(spec_path), "--targets", str(tmp_path / "targets.csv"), "--out", str(tmp_path / "commands.csv"),
                          "--force", "--allow-unreachable")
-    assert allowed.returncode == 0 and (tmp_path / "commands.csv").read_text() == written, allowed.stderr
+    assert allowed.returncode == 0, allowed.stderr
     with open(tmp_path / "commands.csv") as stream:
         rows = list(csv.DictReader(stream))
+    # the same rows: the second process may evaluate with the compiled library where the first used CasADi's virtual
+    # machine (ARMCAL_COMPILE=background), the same numbers to rounding, so q agrees to its printed digits, not bit for bit
+    assert [(r["name"], r["status"], r["position_error_mm"]) for r in rows] == [(r["name"], r["status"], r["position_error_mm"]) for r in written]
+    np.testing.assert_allclose([[float(r[f"q{j}"]) for j in range(1, 7)] for r in rows[:-1]],
+                               [[float(r[f"q{j}"]) for j in range(1, 7)] for r in written[:-1]], rtol=0, atol=1e-9)
     assert [r["name"] for r in rows] == [f"t{i}" for i in range(20)] + ["far"]
     assert rows[-1]["status"].startswith("unreachable")
     got = np.array([[float(r[f"q{j}"]) for j in range(1, 7)] for r in rows[:-1]])

@@ -48,3 +48,31 @@ def test_the_joints_blocking_a_goal_are_those_every_solution_leaves_else_the_lea
     assert blocking_joints(model, mixed) == (2,) and blocking_joints(model, mixed[:2]) == (1,)
     wrapped = deg(np.array([[0.0, 20.0, 90.0], [0.0, -90.0, 395.0]]))  # j3 at 395 = 35 deg: 5 deg below 40 the short way
     assert blocking_joints(model, wrapped) == (2,)
+
+
+def _casadis_own_map(function):
+    """The evaluator before Mapped: one Function.map call, its outputs viewed as they come (the oracle)."""
+
+    def evaluate(Q, p, goals):
+        delta, jacobian = function.map(len(Q))(Q.T, p, goals.T)
+        return np.array(delta).T, np.array(jacobian).reshape(goals.shape[1], len(Q), Q.shape[1]).transpose(1, 0, 2)
+
+    return evaluate
+
+
+def test_solutions_are_bitwise_those_of_casadis_own_map(puma_models):
+    """Speed may not change a root: Newton from far starts (many reach other branches, some halve their steps)
+    gives the same bits through Mapped as through Function.map, whose memory order numpy's sums follow."""
+    model = puma_models["puma560_dh"]
+    truth = random_configurations(model, 400, seed=11)
+    goals = ik.pose_goals(model.tool_poses(truth))
+    start = truth + np.random.default_rng(12).normal(scale=0.8, size=truth.shape)
+    function, p = ik.error_function(model), model.parameter_vector(None)
+    for halvings in (0, ik.SAFE_HALVINGS):
+        got = ik._newton(ik._evaluator(function), model.dof, goals, start, p, ik.TOL_POSITION, ik.TOL_ROTATION,
+                         ik.MAX_ITERATIONS, halvings)
+        expected = ik._newton(_casadis_own_map(function), model.dof, goals, start, p, ik.TOL_POSITION, ik.TOL_ROTATION,
+                              ik.MAX_ITERATIONS, halvings)
+        other_root = np.abs(np.angle(np.exp(1j * (expected.q - truth)))).max(axis=1) > 1e-3
+        assert other_root.mean() > 0.2  # far starts: many goals are reached on another branch than the truth's
+        np.testing.assert_array_equal(got.q, expected.q)

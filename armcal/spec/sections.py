@@ -87,6 +87,11 @@ class Diagnose(SpecModel):
         "stays untouched for the final figures), or the validation set (its figures are then not independent)",
     )
     folds: int = Field(5, ge=2, description="k of the k-fold cross-validation")
+    residual_model: Literal["none", "gp"] = Field(
+        "none",
+        description="a learned model of what the physical model leaves, after the physical effects: none, or gp (a Gaussian "
+        "process per measured coordinate on the joint angles, kept only when it holds out on the k-fold folds as an effect must)",
+    )
 
 
 class IsoCube(SpecModel):

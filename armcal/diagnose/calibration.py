@@ -22,6 +22,7 @@ import numpy as np
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel
 from armcal.diagnose.loop import Diagnosis, run_diagnosis
+from armcal.diagnose.residual_model import Figures, Judgement, applied, judge
 from armcal.effects.library import from_spec
 from armcal.errors import UserError
 from armcal.effects.measurement import EffectSet
@@ -44,6 +45,8 @@ class Calibration:
     diagnosis: Diagnosis | None  # None when the spec turns it off or uses Stone's feature method
     start: np.ndarray  # the nominal model, with a free instrument-to-base transform registered: "before"
     noise: NoiseEstimates | None = None  # the noise estimated from the data, where the spec asks for it
+    residual: Judgement | None = None  # the learned residual model's test (diagnose.residual_model: gp)
+    residual_validation: Figures | None = None  # the validation data without and with it (the final figures)
 
 
 def calibration_problem(spec: Spec, kinematics: KinematicModel, device: DeviceModel, calibration: Measurements) -> tuple[Problem, np.ndarray]:
@@ -89,7 +92,13 @@ def identify_and_diagnose(
         result = diagnosis.fit
         padded = diagnosis.problem.parameters.nominal.copy()
         padded[: len(start)] = start
-        return Calibration(diagnosis.problem, diagnosis.validation, Identified(result.theta, result.std, result), diagnosis, padded, noise)
+        residual = figures = None
+        if settings.residual_model == "gp":  # after the physical loop, on its folds (residual_model.py)
+            residual = judge(diagnosis.context, diagnosis.problem, result)
+            if diagnosis.validation is not None:
+                figures = applied(residual.model, diagnosis.validation, result.theta, np.nan_to_num(validation.q))
+        identified = Identified(result.theta, result.std, result)
+        return Calibration(diagnosis.problem, diagnosis.validation, identified, diagnosis, padded, noise, residual, figures)
     validation_problem = None
     if validation is not None:
         moved = spec.data is not None and spec.data.instrument_moved

@@ -25,6 +25,7 @@ residuals exceed the noise model.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -70,6 +71,19 @@ class Diagnosis:
     validation: Problem | None
     fit: FitResult  # the final fit
     chosen_on: str  # the data that judged the candidates: kfold (calibration poses) or validation
+    context: Context | None = None  # the folds that judged the effects, for the learned residual model after them
+
+
+@dataclass(frozen=True)
+class FoldFit:
+    """One fold of the k-fold cross-validation: its calibration samples (test), the others' (training), the two
+    problems and the training fit's parameters."""
+
+    rows: np.ndarray
+    train_rows: np.ndarray
+    train: Problem
+    test: Problem
+    theta: np.ndarray
 
 
 def with_free(problem: Problem, names: set[str], free: bool = True) -> Problem:
@@ -78,7 +92,7 @@ def with_free(problem: Problem, names: set[str], free: bool = True) -> Problem:
     return replace(problem, parameters=ParameterSet(entries))
 
 
-class _Context:
+class Context:
     """What every round needs: the model, the data, the settings, and the data that judge a candidate."""
 
     def __init__(self, kinematics, device, calibration, validation, effects, fit_settings, settings, instrument_moved):
@@ -105,17 +119,26 @@ class _Context:
         if self.judge == "validation":
             r, _ = self.validation.evaluate(theta)
             return np.bincount(self.validation.residuals.sample[self.validation.residuals.sample >= 0], r[self.validation.residuals.sample >= 0] ** 2)
-        folds = self.settings.folds
-        fold = self.folds[along][self.pose]
         errors = np.zeros(self.pose.max() + 1)
-        for k in range(folds):
-            rows = np.flatnonzero(fold == k)
-            train = self._problem(self.calibration.subset(np.flatnonzero(fold != k)), problem, free)
-            test = self._problem(self.calibration.subset(rows), problem, free)
-            r, _ = test.evaluate(fit(train, self.fit_settings, start=theta, identifiability=identifiability).theta)
-            sample = test.residuals.sample
-            np.add.at(errors, self.pose[rows[sample[sample >= 0]]], r[sample >= 0] ** 2)
+        for fold in self.fold_fits(problem, theta, free, identifiability, along):
+            r, _ = fold.test.evaluate(fold.theta)
+            sample = fold.test.residuals.sample
+            np.add.at(errors, self.pose[fold.rows[sample[sample >= 0]]], r[sample >= 0] ** 2)
         return errors
+
+    def fold_fits(
+        self, problem: Problem, theta: np.ndarray, free: set[str], identifiability: Identifiability, along: int | None = None
+    ) -> Iterator[FoldFit]:
+        """The k-fold fits of the calibration poses, fold by fold: the problems of the folds without it (training) and of
+        the fold (test), and the fit of the training folds from ``theta`` on the full fit's base set. ``along`` a joint,
+        each fold is a contiguous range of that joint's values (folds_along). The effects' held-out errors and the
+        learned residual model's (residual_model.py) come from these same fits."""
+        fold = self.folds[along][self.pose]
+        for k in range(self.settings.folds):
+            rows, train_rows = np.flatnonzero(fold == k), np.flatnonzero(fold != k)
+            train = self._problem(self.calibration.subset(train_rows), problem, free)
+            test = self._problem(self.calibration.subset(rows), problem, free)
+            yield FoldFit(rows, train_rows, train, test, fit(train, self.fit_settings, start=theta, identifiability=identifiability).theta)
 
     def _problem(self, data: Measurements, like: Problem, free: set[str]) -> Problem:
         problem = build_problem(self.kinematics, self.device, data, self.effects, functions=self.functions)
@@ -180,7 +203,7 @@ def run_diagnosis(
     """Fit, then diagnose round by round (see the module's docstring)."""
     pool = candidates(kinematics, device, calibration, declared, settings)
     effects = EffectSet(tuple(declared) + tuple(replace(c, free=False) for c in pool))
-    context = _Context(kinematics, device, calibration, validation, effects, fit_settings, settings, instrument_moved)
+    context = Context(kinematics, device, calibration, validation, effects, fit_settings, settings, instrument_moved)
     problem = build_problem(kinematics, device, calibration, effects, functions=context.functions)
     theta0 = problem.parameters.nominal.copy()
     if start is not None:
@@ -228,7 +251,7 @@ def run_diagnosis(
             _mark_partly_explained(rounds, [t for t in _tests(problem, result, remaining, settings.alpha) if t.significant], result)
     unexplained = result.uncertainty.p_value < NOISE_CHECK_LEVEL
     validation_problem = replace(context.validation, parameters=problem.parameters) if context.validation else None
-    return Diagnosis(rounds, added, list(declared) + added, unexplained, problem, validation_problem, result, context.judge)
+    return Diagnosis(rounds, added, list(declared) + added, unexplained, problem, validation_problem, result, context.judge, context)
 
 
 def _tests(problem: Problem, result: FitResult, remaining: list[EffectSpec], alpha: float) -> list[Test]:

@@ -10,7 +10,7 @@ import pytest
 from conftest import copy_example
 from test_diagnosis import TRACKER, _data, _spec
 
-from armcal.diagnose.loop import _Context, contiguous_folds, folds_along, holds_out, run_diagnosis
+from armcal.diagnose.loop import Context, contiguous_folds, folds_along, holds_out, run_diagnosis
 from armcal.effects.library import EffectSpec, coupling
 from armcal.effects.measurement import EffectSet
 from armcal.pipeline import run
@@ -48,7 +48,7 @@ def test_a_joint_effect_is_cross_validated_over_contiguous_ranges_of_its_joint(t
     equal in size to one pose; a coupling follows its driving joint, an instrument's effect the interleaved folds."""
     loaded = _spec(tmp_path, TRACKER, "simulate: {seed: 9}\n")
     kinematics, device, calibration, validation = _data(loaded, tmp_path)
-    context = _Context(kinematics, device, calibration, validation, EffectSet(), Fit(), Diagnose(), False)
+    context = Context(kinematics, device, calibration, validation, EffectSet(), Fit(), Diagnose(), False)
     poses = np.unique(np.round(calibration.q, 9), axis=0)
     for joint in range(1, kinematics.dof + 1):
         fold = context.folds[joint]

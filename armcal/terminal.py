@@ -186,6 +186,7 @@ def run_summary(outcome) -> str:
         moved = ", ".join(name for name, _ in flat.parameters)
         lines.append(f"  flat direction at the solution: singular value {flat.ratio:.2g} of the largest, along {moved}")
     lines += held_out_lines(r)
+    lines += residual_model_lines(r)
     if r.identifiability.unidentifiable:
         lines.append(f"  not identifiable from these data: {', '.join(r.identifiability.unidentifiable)}")
     lines += task_lines(r)
@@ -341,6 +342,28 @@ def simulation_summary(loaded: LoadedSpec, campaign) -> str:
     if any(reasons.values()):  # a reason without spec keys (a random keyed pose out of reach) has nothing to look at
         lines.append("  look at: " + "; ".join(f"{why} -> {keys}" for why, keys in reasons.items() if keys))
     return "\n".join(lines)
+
+
+def residual_model_lines(r) -> list[str]:
+    """The learned residual model's verdict and held-out figures (diagnose.residual_model; results.json's residual_model)."""
+    m = r.residual_model
+    if m is None:
+        return []
+    test = f"held-out change {m.z:+.1f} standard errors, needs below -{m.threshold:g}, {m.folds} folds along joint {m.folds_along_joint}"
+    if not m.accepted:
+        return [f"  learned residual model (gp): not accepted ({test}): the physical model stands alone"]
+    lines = [f"  learned residual model (gp): accepted ({test})"]
+    for label, f in (("held-out (k-fold)", m.held_out), ("validation", m.validation)):
+        if f is None:
+            continue
+        if f.rms_3d_physical is not None:
+            figure = f"3D RMS {f.rms_3d_physical:.4g} -> {f.rms_3d_learned:.4g} mm"
+        else:
+            figure = ", ".join(f"{c.coordinate} RMS {c.physical:.4g} -> {c.learned:.4g} {c.unit}" for c in f.per_coordinate)
+        lines.append(f"    {label}: {figure} (physical -> physical + learned); {f.outside} of {f.readings} readings outside the "
+                     "calibrated region, not corrected")
+    lines.append(f"    {m.carried}")
+    return lines
 
 
 def held_out_lines(r) -> list[str]:

@@ -36,6 +36,10 @@ NOISE_FLOOR = 0.5  # the noise term's standard deviation is at least this fracti
 MAX_TRAINING = 800  # readings per coordinate that train a model at most (a spread subset above)
 OUTSIDE = 0.5  # predictive std / prior std above which a prediction is outside the calibrated region
 RANDOM_STATE = 0
+NOT_CARRIED = (
+    "the learned model stays in this run: calibrated.yaml, export (every format) and compensate carry the physical "
+    "model only"
+)
 RESTARTS = 1
 
 

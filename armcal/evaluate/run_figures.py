@@ -9,6 +9,8 @@ from armcal.diagnose.causes import likely_causes
 from armcal.evaluate.held_out_check import held_out_check
 from armcal.diagnose.loop import Diagnosis
 from armcal.diagnose.calibration import Calibration
+from armcal.diagnose.loop import HOLDS_OUT
+from armcal.diagnose.residual_model import NOT_CARRIED, OUTSIDE, Figures
 from armcal.evaluate.acceptance import acceptance_block
 from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
@@ -105,6 +107,7 @@ def run_figures(
         campaign=measured,
         acceptance=acceptance_block(spec.acceptance, calibration.validation, identified.theta, reading_kind),
         held_out_check=held_out_check(problem, calibration.validation, result, identified.theta) if identified.features is None else None,
+        residual_model=residual_model_block(loaded, calibration),
     )
 
 
@@ -214,4 +217,43 @@ def diagnosis_block(loaded: LoadedSpec, calibration: Calibration) -> dict:
         "unexplained": diagnosis.unexplained,
         "chosen_on": CHOSEN_ON[diagnosis.chosen_on].format(folds=loaded.spec.diagnose.folds),
         "alpha": loaded.spec.diagnose.alpha,
+    }
+
+
+def residual_model_block(loaded: LoadedSpec, calibration: Calibration) -> dict | None:
+    """results.json's residual_model: the learned model's test on the k-fold folds, its held-out and validation
+    figures without and with it (mm, deg), its hyperparameters and the predictions outside the calibrated region."""
+    judgement = calibration.residual
+    if judgement is None:
+        return None
+    res = calibration.problem.residuals
+    kinds = dict(zip(res.channel, res.kind))
+    unit = lambda name: "deg" if kinds.get(name) == "angle" else "mm"  # noqa: E731
+    shown = lambda name, v: float(from_internal(v, "angle", "deg")) if unit(name) == "deg" else float(v)  # noqa: E731
+
+    def figures(f: Figures | None) -> dict | None:
+        if f is None:
+            return None
+        rows = [{"coordinate": n, "unit": unit(n), "physical": shown(n, f.rms_physical[n]), "learned": shown(n, f.rms_learned[n])}
+                for n in f.rms_physical]
+        three = {"rms_3d_physical": f.rms_3d[0], "rms_3d_learned": f.rms_3d[1]} if f.rms_3d else {}
+        return {"per_coordinate": rows, **three, "outside": f.outside, "readings": f.readings}
+
+    return {
+        "kind": "gp",
+        "accepted": judgement.accepted,
+        "z": judgement.z,
+        "threshold": HOLDS_OUT,
+        "folds": loaded.spec.diagnose.folds,
+        "folds_along_joint": judgement.along,
+        "held_out": figures(judgement.held_out),
+        "validation": figures(calibration.residual_validation),
+        "outside_fraction": OUTSIDE,
+        "hyperparameters": [
+            {"coordinate": n, "unit": unit(n), "signal_std": shown(n, float(np.sqrt(m.constant))), "noise_std": shown(n, float(np.sqrt(m.noise))),
+             "length_scales_rad": [float(v) for v in m.length_scales], "training_readings": len(m.y)}
+            for n, m in judgement.model.coordinates.items()
+        ],
+        "seconds": judgement.seconds,
+        "carried": NOT_CARRIED,
     }

@@ -215,6 +215,51 @@ class Diagnosis(_Frozen):
     plots: list[str] = []
 
 
+class CoordinateRMS(_Frozen):
+    """One coordinate's held-out RMS without and with the learned residual model."""
+
+    coordinate: str
+    unit: str  # mm for lengths, deg for angles
+    physical: float
+    learned: float
+
+
+class LearnedFigures(_Frozen):
+    """Held-out errors of the physical model alone and with the learned residual model."""
+
+    per_coordinate: list[CoordinateRMS]
+    rms_3d_physical: float | None = None  # mm, 3D distance per pose (tracker)
+    rms_3d_learned: float | None = None
+    outside: int  # readings outside the calibrated region: their correction is not applied
+    readings: int
+
+
+class LearnedHyperparameters(_Frozen):
+    coordinate: str
+    unit: str
+    signal_std: float  # prior standard deviation of the learned function
+    noise_std: float
+    length_scales_rad: list[float]  # one per joint
+    training_readings: int
+
+
+class ResidualModelResult(_Frozen):
+    """The learned residual model (diagnose.residual_model), after the physical effects, and its test."""
+
+    kind: Literal["gp"]
+    accepted: bool
+    z: float  # change of the held-out squared error, in standard errors (accepted below -threshold)
+    threshold: float
+    folds: int
+    folds_along_joint: int | None  # the folds are contiguous ranges of this joint's angle
+    held_out: LearnedFigures  # k-fold over the calibration poses
+    validation: LearnedFigures | None = None  # the validation data (final figures)
+    outside_fraction: float  # the predictive std above which a prediction is outside the calibrated region, of the prior's
+    hyperparameters: list[LearnedHyperparameters]
+    seconds: float
+    carried: str  # where the model goes beyond this run
+
+
 class VarianceTestResult(_Frozen):
     statistic: float  # r (sigma / declared)^2, chi-square on r degrees of freedom under the declared noise
     dof: float
@@ -403,6 +448,7 @@ class Results(_Frozen):
     warnings: list[str] = []  # what the user should know about the inputs (e.g. a simulated-looking t column in real data)
     held_out_check: HeldOutCheck | None = None  # null: no held-out data
     plausibility: Plausibility | None = None  # null: results of an older armcal
+    residual_model: ResidualModelResult | None = None  # null: diagnose.residual_model is none (or no diagnosis ran)
 
     @model_validator(mode="after")
     def _consistent(self) -> "Results":

@@ -37,7 +37,7 @@ MAX_TRAINING = 800  # readings per coordinate that train a model at most (a spre
 OUTSIDE = 0.5  # predictive std / prior std above which a prediction is outside the calibrated region
 RANDOM_STATE = 0
 NOT_CARRIED = (
-    "the learned model stays in this run: calibrated.yaml, export (every format) and compensate carry the physical "
+    "The learned model stays in this run: calibrated.yaml, export (every format) and compensate carry the physical "
     "model only"
 )
 RESTARTS = 1

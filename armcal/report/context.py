@@ -155,6 +155,41 @@ def _diagnosis(results: dict, shown: Shown) -> dict:
     }
 
 
+def _learned(results: dict, shown: Shown) -> dict | None:
+    """The learned residual model's section: its verdict, then per coordinate and 3D the held-out RMS of the physical
+    model against physical + learned (k-fold folds, then the validation data), in the certificate's unit."""
+    model = results.get("residual_model")
+    if model is None:
+        return None
+    value = lambda v, unit: fixed(shown.length(v, unit), shown.places if unit in LENGTH_UNITS else 4)  # noqa: E731
+    rows = []
+    for label, figures in (("calibration poses, k-fold (held out)", model["held_out"]), ("validation (held out)", model.get("validation"))):
+        if figures is None:
+            continue
+        for c in figures["per_coordinate"]:
+            rows.append({"data": label, "coordinate": c["coordinate"], "unit": shown.unit_of(c["unit"]),
+                         "physical": value(c["physical"], c["unit"]), "learned": value(c["learned"], c["unit"])})
+        if figures.get("rms_3d_physical") is not None:
+            rows.append({"data": label, "coordinate": "3D distance", "unit": shown.unit_of("mm"),
+                         "physical": value(figures["rms_3d_physical"], "mm"), "learned": value(figures["rms_3d_learned"], "mm")})
+    verdict = "accepted" if model["accepted"] else "not accepted: the physical model stands alone and no correction is applied"
+    outside = [f"{f['outside']} of {f['readings']} {label} readings" for label, f in (("k-fold held-out", model["held_out"]), ("validation", model.get("validation"))) if f]
+    hyper = "; ".join(
+        f"{h['coordinate']}: signal {value(h['signal_std'], h['unit'])}, noise {value(h['noise_std'], h['unit'])} {shown.unit_of(h['unit'])}, "
+        f"length scales {', '.join(f'{v:.2g}' for v in h['length_scales_rad'])} rad, {h['training_readings']} training readings"
+        for h in model["hyperparameters"]
+    )
+    return {
+        "verdict": verdict,
+        "test": f"held-out change {model['z']:+.1f} standard errors (accepted below -{model['threshold']:g}), {model['folds']} folds along joint {model['folds_along_joint']}",
+        "rows": rows,
+        "outside": ", ".join(outside),
+        "fraction": f"{model['outside_fraction']:g}",
+        "hyperparameters": hyper,
+        "carried": model["carried"],
+    }
+
+
 def _effect_name(effect: dict) -> str:
     return effect["type"] + (f" joint {effect['joint']}" if effect["joint"] else "")
 
@@ -488,6 +523,7 @@ def certificate_context(results: dict, plots: dict[str, str]) -> dict:
         "features": _features(results, shown),
         "iso": _iso(results, shown),
         "diagnosis": _diagnosis(results, shown),
+        "learned": _learned(results, shown),
         "plots": _plots(results, plots),
         "noise": {
             "chi2": f"{noise['chi2']:.1f} on {noise['dof']} degrees of freedom ({p_value(noise['p_value'])})",

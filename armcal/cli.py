@@ -374,6 +374,8 @@ def export(
     if exported.left_out:
         typer.echo(f"  not held by {fmt} (calibrated.yaml keeps them): {', '.join(exported.left_out)}")
         typer.echo(f"  a program carries them all: armcal compensate {source} --targets TARGETS.csv --out COMMANDS.csv (docs/deploy.md)")
+    if exported.learned:
+        typer.echo(f"  {exported.learned} (docs/export.md)")
 
 
 @app.command(cls=Command)
@@ -389,7 +391,7 @@ def compensate(
 
     Exit 3 when a target is unreachable: its row says why, and every other row is written all the same.
     """
-    from armcal.export import calibration_source
+    from armcal.export import calibration_source, learned_model
     from armcal.export.compensation import compensate as compensated_commands
     from armcal.dataio.reader import data_text
     from armcal.report.numbers import counted
@@ -406,6 +408,8 @@ def compensate(
         typer.echo(f"  unreachable: {line}")
     if left_out:
         typer.echo(f"  not compensated (they do not follow the joints alone): {', '.join(left_out)}")
+    if (learned := learned_model(loaded, results)) is not None:
+        typer.echo(f"  not compensated: {learned} (docs/export.md)")
     if results is None:
         typer.echo("  no corrected Cartesian targets: they need the nominal model, in a run's results.json (give the run's folder)")
     if unreached and not allow_unreachable:

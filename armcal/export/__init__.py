@@ -27,6 +27,19 @@ FORMATS = ("urdf", "ur-calibration", "dh-table", "json")
 class Export:
     text: str
     left_out: tuple[str, ...]  # effects (and joint scales) the format cannot hold
+    learned: str | None = None  # the learned residual model of the run, which no format carries (learned_model)
+
+
+def learned_model(loaded: LoadedSpec, results: dict | None) -> str | None:
+    """What to say of the run's learned residual model (diagnose.residual_model), which neither calibrated.yaml nor an
+    export format nor compensate carries: None when there is none (or it was not accepted)."""
+    model = (results or {}).get("residual_model")
+    if model is not None and model["accepted"]:
+        return "the learned residual model that the run accepted is not carried (only the physical model is): see results.json residual_model"
+    if results is None and loaded.spec.diagnose.residual_model == "gp":
+        return ("the spec asks for a learned residual model (diagnose.residual_model: gp); if its run accepted one, it is not carried "
+                "(only the physical model is)")
+    return None
 
 
 def calibration_source(path: Path) -> tuple[LoadedSpec, dict | None]:
@@ -47,11 +60,12 @@ def export(path: Path, fmt: str) -> Export:
     loaded, results = calibration_source(path)
     spec = loaded.spec
     effects = tuple(f"{e.type}" + (f" (joint {e.joint})" if getattr(e, "joint", None) else "") for e in spec.effects)
+    learned = learned_model(loaded, results)
     if fmt == "json":
-        return Export(parameters_json(loaded, results), ())
+        return Export(parameters_json(loaded, results), (), learned)
     if fmt == "urdf":
         text, scaled = urdf(spec, compile_robot(spec.robot), effects)
-        return Export(text, effects + scaled)
+        return Export(text, effects + scaled, learned)
     if fmt == "ur-calibration":
-        return Export(*ur_calibration(loaded, effects))
-    return Export(dh_table(loaded, effects), effects)
+        return Export(*ur_calibration(loaded, effects), learned)
+    return Export(dh_table(loaded, effects), effects, learned)

@@ -14,6 +14,7 @@ import sys
 import numpy as np
 import pytest
 from conftest import ROOT
+from test_run import E_NOTATION
 
 import independent_sim as sim
 from armcal.dataio.reader import read_measurements
@@ -90,7 +91,9 @@ def test_the_run_reports_the_learned_model_everywhere(bent):
     assert "learned residual model (gp): accepted" in summary and "validation: 3D RMS" in summary
     html = (outcome.out_dir / "certificate.html").read_text()
     assert "Learned residual model (Gaussian process) after the physical model" in html
-    assert "validation (held out)" in html and "3D distance" in html
+    section = html.split("Learned residual model (Gaussian process)", 1)[1].split("<h2>", 1)[0]
+    assert "validation (held out)" in section and "3D distance" in section
+    assert not E_NOTATION.search(section), E_NOTATION.search(section)
 
 
 def test_export_and_compensate_say_the_learned_model_is_not_carried(bent, tmp_path):

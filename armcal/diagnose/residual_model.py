@@ -37,8 +37,8 @@ MAX_TRAINING = 800  # readings per coordinate that train a model at most (a spre
 OUTSIDE = 0.5  # predictive std / prior std above which a prediction is outside the calibrated region
 RANDOM_STATE = 0
 NOT_CARRIED = (
-    "The learned model stays in this run: calibrated.yaml, export (every format) and compensate carry the physical "
-    "model only"
+    "The learned model is carried by results.json and export --format json (its training inputs and hyperparameters); "
+    "calibrated.yaml, the other export formats and compensate carry the physical model only"
 )
 RESTARTS = 1
 
@@ -55,6 +55,12 @@ class CoordinateModel:
     length_scales: np.ndarray  # rad, one per joint
     noise: float  # variance of the noise term
     regressor: object = field(repr=False, compare=False)
+
+    def carried(self) -> dict:
+        """What reproduces the model's predictions elsewhere (results.json, ``export --format json``): the training
+        inputs and targets and the hyperparameters of C * RBF(l) + White, fitted no more."""
+        return {"coordinate": self.channel, "inputs_rad": self.q.tolist(), "targets": self.y.tolist(),
+                "signal_variance": self.constant, "length_scales_rad": self.length_scales.tolist(), "noise_variance": self.noise}
 
     def predict(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The learned correction (measured - predicted) at joint angles ``q`` (rad), its standard deviation (the

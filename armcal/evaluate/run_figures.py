@@ -256,4 +256,5 @@ def residual_model_block(loaded: LoadedSpec, calibration: Calibration) -> dict |
         ],
         "seconds": judgement.seconds,
         "carried": NOT_CARRIED,
+        "model": [m.carried() for m in judgement.model.coordinates.values()] if judgement.accepted else None,
     }

@@ -27,18 +27,21 @@ FORMATS = ("urdf", "ur-calibration", "dh-table", "json")
 class Export:
     text: str
     left_out: tuple[str, ...]  # effects (and joint scales) the format cannot hold
-    learned: str | None = None  # the learned residual model of the run, which no format carries (learned_model)
+    learned: str | None = None  # what the terminal says of the run's learned residual model (learned_model)
 
 
-def learned_model(loaded: LoadedSpec, results: dict | None) -> str | None:
-    """What to say of the run's learned residual model (diagnose.residual_model), which neither calibrated.yaml nor an
-    export format nor compensate carries: None when there is none (or it was not accepted)."""
+def learned_model(loaded: LoadedSpec, results: dict | None, fmt: str | None = None) -> str | None:
+    """What to say of the run's learned residual model (diagnose.residual_model): ``export --format json`` carries an
+    accepted one (from results.json), calibrated.yaml, the other formats and compensate do not. None when there is
+    none (or it was not accepted)."""
     model = (results or {}).get("residual_model")
     if model is not None and model["accepted"]:
+        if fmt == "json":
+            return "the learned residual model that the run accepted is carried: residual_model (training inputs and hyperparameters)"
         return "the learned residual model that the run accepted is not carried (only the physical model is): see results.json residual_model"
     if results is None and loaded.spec.diagnose.residual_model == "gp":
         return ("the spec asks for a learned residual model (diagnose.residual_model: gp); if its run accepted one, it is not carried "
-                "(only the physical model is)")
+                "(only the physical model is): give the run's folder")
     return None
 
 
@@ -60,7 +63,7 @@ def export(path: Path, fmt: str) -> Export:
     loaded, results = calibration_source(path)
     spec = loaded.spec
     effects = tuple(f"{e.type}" + (f" (joint {e.joint})" if getattr(e, "joint", None) else "") for e in spec.effects)
-    learned = learned_model(loaded, results)
+    learned = learned_model(loaded, results, fmt)
     if fmt == "json":
         return Export(parameters_json(loaded, results), (), learned)
     if fmt == "urdf":

@@ -31,4 +31,7 @@ def parameters_json(loaded: LoadedSpec, results: dict | None) -> str:
         "parameters": rows,
         "effects": [e.model_dump(mode="json", by_alias=True, exclude_none=True) for e in spec.effects],
     }
+    learned = (results or {}).get("residual_model") or {}
+    if learned.get("model"):  # the run's accepted learned residual model (docs/export.md)
+        document["residual_model"] = {"kind": learned["kind"], "outside_fraction": learned["outside_fraction"], "coordinates": learned["model"]}
     return json.dumps(document, indent=2) + "\n"

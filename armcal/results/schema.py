@@ -243,6 +243,18 @@ class LearnedHyperparameters(_Frozen):
     training_readings: int
 
 
+class LearnedCoordinate(_Frozen):
+    """What reproduces one coordinate's learned model: a Gaussian process with the kernel
+    signal_variance * RBF(length_scales_rad) + noise_variance * White, conditioned on the targets at the inputs."""
+
+    coordinate: str
+    inputs_rad: list[list[float]]  # joint angles of the training readings
+    targets: list[float]  # measured - predicted by the physical model, mm (rad for an angle)
+    signal_variance: float
+    length_scales_rad: list[float]
+    noise_variance: float
+
+
 class ResidualModelResult(_Frozen):
     """The learned residual model (diagnose.residual_model), after the physical effects, and its test."""
 
@@ -258,6 +270,7 @@ class ResidualModelResult(_Frozen):
     hyperparameters: list[LearnedHyperparameters]
     seconds: float
     carried: str  # where the model goes beyond this run
+    model: list[LearnedCoordinate] | None = None  # the accepted model, to reproduce its predictions (null: not accepted)
 
 
 class VarianceTestResult(_Frozen):

@@ -7,6 +7,7 @@ q2 + q3 that no effect of the vocabulary (one joint's angle, torque or coupling)
 the simulator drew.
 """
 
+import csv
 import json
 import subprocess
 import sys
@@ -102,6 +103,31 @@ def test_export_and_compensate_say_the_learned_model_is_not_carried(bent, tmp_pa
                               capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert exported.returncode == 0, exported.stderr
     assert "learned residual model that the run accepted is not carried" in exported.stdout
+
+
+def test_export_json_carries_the_model_and_its_predictions_come_back(bent, tmp_path):
+    """The exported training inputs and hyperparameters, put into scikit-learn by hand, correct the validation
+    residuals of residuals.csv to exactly the learned figures results.json reports."""
+    from sklearn.gaussian_process import GaussianProcessRegressor
+    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+
+    outcome, _ = bent
+    exported = subprocess.run([sys.executable, "-m", "armcal", "export", str(outcome.out_dir), "--format", "json", "--out", str(tmp_path / "c.json")],
+                              capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert exported.returncode == 0 and "learned residual model that the run accepted is carried" in exported.stdout, exported.stdout + exported.stderr
+    carried = json.loads((tmp_path / "c.json").read_text())["residual_model"]
+    table = np.genfromtxt(outcome.out_dir.parent / "validation.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
+    q_of_line = {line: np.array([table[f"q{j}"][line - 2] for j in range(1, 7)]) * DEG for line in range(2, len(table) + 2)}
+    rows = [r for r in csv.DictReader((outcome.out_dir / "residuals.csv").open()) if r["data"] == "validation"]
+    reported = {c.coordinate: c.learned for c in outcome.results.residual_model.validation.per_coordinate}
+    for model in carried["coordinates"]:
+        kernel = ConstantKernel(model["signal_variance"], "fixed") * RBF(model["length_scales_rad"], "fixed") + WhiteKernel(model["noise_variance"], "fixed")
+        gp = GaussianProcessRegressor(kernel, optimizer=None).fit(np.array(model["inputs_rad"]), np.array(model["targets"]))
+        mine = [r for r in rows if r["channel"] == model["coordinate"]]
+        mean, std = gp.predict(np.array([q_of_line[int(r["line"])] for r in mine]), return_std=True)
+        trusted = np.sqrt(np.maximum(std**2 - model["noise_variance"], 0)) <= carried["outside_fraction"] * np.sqrt(model["signal_variance"])
+        corrected = np.array([float(r["residual_after"]) for r in mine]) + np.where(trusted, mean, 0.0)  # predicted - measured
+        assert rms(corrected) == pytest.approx(reported[model["coordinate"]], abs=1e-9)
 
 
 def test_a_clean_campaign_does_not_accept_it(tmp_path):

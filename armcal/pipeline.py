@@ -92,7 +92,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     warnings = [w for w in (
         simulated_times(calibration_path, raw.extras.get("t"), step, truth),
         simulated_times(validation_path, validation.extras.get("t"), step, None if not simulated[1] else {}) if validation is not None else None,
-    ) if w] + placeholder_notes(loaded)
+    ) if w] + placeholder_notes(loaded) + residual_model_note(spec, calibrated)
     measured = campaign(loaded, calibration, validation, simulated)
     figures = run_figures(loaded, calibrated, calibration.rows, tasks, found, list(plots), measured)
     results = build_results(loaded, figures, run_id=identifier, warnings=warnings,
@@ -108,6 +108,14 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
         }
     publish(files, identifier)  # only now, all at once: a failure above leaves the previous set as it was
     return Outcome(results, out_dir)
+
+
+def residual_model_note(spec, calibrated) -> list[str]:
+    """The learned residual model the spec asks for was not judged: it is judged on the diagnosis' folds."""
+    if spec.diagnose.residual_model == "none" or calibrated.residual is not None:
+        return []
+    return ["diagnose.residual_model: gp was not run: it is judged on the diagnosis' k-fold folds, and no diagnosis ran "
+            "(diagnose.enabled false, diagnose.max_rounds 0, or fit.method other than least_squares)"]
 
 
 def check_readable(device, data) -> None:

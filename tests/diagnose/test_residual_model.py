@@ -11,6 +11,7 @@ import csv
 import json
 import subprocess
 import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -22,7 +23,7 @@ from armcal.dataio.reader import read_measurements
 from armcal.diagnose.calibration import identify_and_diagnose
 from armcal.diagnose.residual_model import MAX_TRAINING, spread_subset
 from armcal.kinematics.compiler import compile_robot
-from armcal.pipeline import fitted_device, run
+from armcal.pipeline import fitted_device, residual_model_note, run
 from armcal.spec import load_spec
 from armcal.terminal import run_summary
 
@@ -167,3 +168,11 @@ def test_scikit_learn_is_imported_only_when_a_spec_asks_for_the_model():
     code = "import sys, armcal.cli, armcal.pipeline, armcal.export, armcal.diagnose.residual_model; print('sklearn' in sys.modules)"
     shown = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert shown.stdout.strip() == "False", shown.stderr
+
+
+def test_a_model_asked_for_without_a_diagnosis_is_said_not_run(tmp_path):
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(sim.spec_text("puma560", "tracker") + "diagnose: {residual_model: gp, enabled: false}\n")
+    (note,) = residual_model_note(load_spec(spec).spec, SimpleNamespace(residual=None))
+    assert note.startswith("diagnose.residual_model: gp was not run")
+    assert residual_model_note(load_spec(spec).spec, SimpleNamespace(residual=object())) == []

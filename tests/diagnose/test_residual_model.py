@@ -176,3 +176,19 @@ def test_a_model_asked_for_without_a_diagnosis_is_said_not_run(tmp_path):
     (note,) = residual_model_note(load_spec(spec).spec, SimpleNamespace(residual=None))
     assert note.startswith("diagnose.residual_model: gp was not run")
     assert residual_model_note(load_spec(spec).spec, SimpleNamespace(residual=object())) == []
+
+
+@pytest.mark.slow  # 6-30 s: the default run of this file stays under 90 s
+def test_with_a_vocabulary_effect_the_physical_effect_is_still_found_first(tmp_path):
+    """A hidden gear harmonic (the independent simulator's, three noise sigmas): the loop adds it, the learned model
+    comes after it and has next to nothing left to learn."""
+    hidden = sim.write_campaign(tmp_path, "puma560", "tracker", "gear_harmonic", seed=3, sigmas=3.0, joint=2, order=2)
+    spec = hidden["spec"]
+    spec.write_text(spec.read_text() + "diagnose: {residual_model: gp}\n")
+    loaded = load_spec(spec)
+    raw = read_measurements(tmp_path / "calibration.csv", loaded.spec)
+    device = fitted_device(loaded.spec, raw)
+    validation = device.prepare(read_measurements(tmp_path / "validation.csv", loaded.spec))
+    calibrated = identify_and_diagnose(loaded.spec, compile_robot(loaded.spec.robot), device, raw, device.prepare(raw), validation)
+    assert [e.id for e in calibrated.diagnosis.added][:1] == ["gear_harmonic.j2.h2"]
+    assert not calibrated.residual.accepted, calibrated.residual.z

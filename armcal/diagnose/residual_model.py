@@ -16,7 +16,9 @@ are contiguous ranges of the joint the model varies most along (its largest rang
 on all the calibration data), as an effect's are of the joint it follows; the validation data stay untouched.
 
 A prediction whose predictive standard deviation (of the learned function, without the noise term) exceeds
-OUTSIDE of the prior's is outside the calibrated region: it is not applied, and it is counted.
+OUTSIDE of the prior's is outside the calibrated region: it is not applied, and it is counted. A coordinate whose
+learned function's prior standard deviation is below NEGLIGIBLE of its noise term's learned nothing: no correction of
+it reaches a tenth of a reading's noise anywhere, so it has no region to leave and none of its predictions is counted.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ MIN_LENGTH_SCALE = 0.2  # rad: no faster variation along a joint than this is le
 NOISE_FLOOR = 0.5  # the noise term's standard deviation is at least this fraction of the declared sigma
 MAX_TRAINING = 800  # readings per coordinate that train a model at most (a spread subset above)
 OUTSIDE = 0.5  # predictive std / prior std above which a prediction is outside the calibrated region
+NEGLIGIBLE = 0.1  # prior std / noise std below which a coordinate's model learned nothing (never outside)
 RANDOM_STATE = 0
 NOT_CARRIED = (
     "The learned model is carried by results.json and export --format json (its training inputs and hyperparameters); "
@@ -67,7 +70,11 @@ class CoordinateModel:
         function's, without the noise term) and whether it is inside the calibrated region."""
         mean, std = self.regressor.predict(q, return_std=True)
         latent = np.sqrt(np.maximum(std**2 - self.noise, 0.0))
-        return mean, latent, latent <= OUTSIDE * np.sqrt(self.constant)
+        return mean, latent, (latent <= OUTSIDE * np.sqrt(self.constant)) | self.learned_nothing
+
+    @property
+    def learned_nothing(self) -> bool:
+        return self.constant < NEGLIGIBLE**2 * self.noise
 
 
 @dataclass(frozen=True)

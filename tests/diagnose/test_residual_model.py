@@ -21,7 +21,7 @@ from test_run import E_NOTATION
 import independent_sim as sim
 from armcal.dataio.reader import read_measurements
 from armcal.diagnose.calibration import identify_and_diagnose
-from armcal.diagnose.residual_model import MAX_TRAINING, spread_subset
+from armcal.diagnose.residual_model import MAX_TRAINING, fit_coordinate, spread_subset
 from armcal.kinematics.compiler import compile_robot
 from armcal.pipeline import fitted_device, residual_model_note, run
 from armcal.spec import load_spec
@@ -162,6 +162,18 @@ def test_above_the_limit_a_spread_subset_trains():
     nearest = np.min(np.linalg.norm(q[:, None, :] - q[chosen][None, :, :], axis=2), axis=1)
     assert nearest.max() < 0.1  # every reading within 0.1 of a chosen one (800 of 3000 uniform points: ~0.035 apart)
     assert list(spread_subset(q[:10], MAX_TRAINING)) == list(range(10))
+
+
+def test_far_predictions_are_outside_unless_the_coordinate_learned_nothing():
+    """A learned sin(q1) is trusted near its training inputs and flagged 4-7 rad away; a coordinate of noise alone
+    (its signal fitted to under a tenth of its noise) is flagged nowhere: no correction of it could matter."""
+    rng = np.random.default_rng(3)
+    q, far = rng.uniform(-1, 1, (200, 2)), rng.uniform(5, 6, (50, 2))
+    signal = fit_coordinate("x", q, np.sin(q[:, 0]) + rng.normal(0, 0.01, 200), 0.01)
+    assert not signal.learned_nothing and signal.predict(q)[2].all() and not signal.predict(far)[2].any()
+    silent = fit_coordinate("y", q, np.zeros(200), 0.01)
+    assert np.sqrt(silent.constant) < 0.1 * np.sqrt(silent.noise)  # the premise: nothing was learned
+    assert silent.learned_nothing and silent.predict(far)[2].all()
 
 
 def test_scikit_learn_is_imported_only_when_a_spec_asks_for_the_model():

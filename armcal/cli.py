@@ -105,7 +105,7 @@ def validate(
     from armcal.spec import load_spec
     from armcal.spec.loader import missing_data_files
     from armcal.spec.placeholders import placeholder_warnings
-    from armcal.terminal import spec_summary
+    from armcal.commands.terminal import spec_summary
 
     failed = False
     for spec in specs:
@@ -145,7 +145,7 @@ def fk(
     target: Annotated[str | None, typer.Option(help="A robot target instead of the tool.", metavar="NAME")] = None,
 ) -> None:
     """Forward kinematics of the spec's nominal robot at one configuration."""
-    from armcal.terminal import forward_kinematics_report
+    from armcal.commands.terminal import forward_kinematics_report
     from armcal.spec import load_spec
 
     typer.echo(forward_kinematics_report(load_spec(spec), q, target))
@@ -162,7 +162,7 @@ def simulate(
     from armcal.progress import stage
     from armcal.simulate import data_folder, write_simulation
     from armcal.spec import load_spec
-    from armcal.terminal import simulation_summary, where_run_reads
+    from armcal.commands.terminal import simulation_summary, where_run_reads
 
     loaded = load_spec(spec)
     with stage("simulating the campaign"):
@@ -189,8 +189,8 @@ def run(
     history: HistoryOption = None,
 ) -> None:
     """Identify the robot from the spec's data and write results.json and calibrated.yaml."""
-    from armcal.pipeline import run as run_pipeline
-    from armcal.terminal import run_summary
+    from armcal.commands.run import run as run_pipeline
+    from armcal.commands.terminal import run_summary
 
     outcome = run_pipeline(spec, out, force, pdf=not no_pdf, history=history or [])
     typer.echo(run_summary(outcome))
@@ -241,8 +241,8 @@ def montecarlo(
     force: Annotated[bool, typer.Option("--force", help="Replace an earlier study in the output folder (the whole folder's set).")] = False,
 ) -> None:
     """Stone's Monte-Carlo study: N simulated robots identified, then design-model vs calibrated control on the grid task."""
-    from armcal.montecarlo_command import montecarlo as run_study, pose_counts
-    from armcal.terminal import study_summary
+    from armcal.commands.montecarlo import montecarlo as run_study, pose_counts
+    from armcal.commands.terminal import study_summary
 
     with _progress_bar("robots, then designs") as show:
         study = run_study(spec, runs, sweep or [], seed, out, workers, scheduler, show, pose_counts(poses), force)
@@ -272,9 +272,9 @@ def batch(
     scheduler: SchedulerOption = None,
 ) -> None:
     """Calibrate a fleet: run every spec (one certificate each) in parallel; exit 1 if any spec failed, 4 on an internal error."""
-    from armcal.batch import batch as run_batch, exit_code, summary_files, write_summary
+    from armcal.commands.batch import batch as run_batch, exit_code, summary_files, write_summary
     from armcal.fileio import refuse_replacing
-    from armcal.terminal import batch_summary
+    from armcal.commands.terminal import batch_summary
 
     summary = summary_files(out)
     refuse_replacing(summary, specs, force)  # before the fleet's work, not after it
@@ -326,7 +326,7 @@ def new(
     """Write a commented starting spec for a library robot and a measuring device (docs/robots.md)."""
     from armcal.fileio import refuse_replacing, write_text_atomic
     from armcal.devices.registry import INSTRUMENTS
-    from armcal.new_spec import default_out, new_spec_text
+    from armcal.commands.new import default_out, new_spec_text
     from armcal.robot_library import library_robot, names
 
     if list_robots:
@@ -471,7 +471,7 @@ def plan(
     orientation: Annotated[str, typer.Option("--orientation", help="The region's poses: at the task's orientation (task, the default) or any.", metavar="task|any")] = "task",
 ) -> None:
     """Choose N calibration poses from M readable candidates (D-optimal), with predicted uncertainties and accuracy (docs/plan.md)."""
-    from armcal.planner import plan_command
+    from armcal.commands.plan import plan_command
 
     say = lambda line: typer.echo(line, err=True)  # noqa: E731
     with _progress_bar("robots") as show:

@@ -70,7 +70,7 @@ from armcal.identify.problem import build_problem
 from armcal.identify.starting_values import starting_values
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.transforms import rigid_registration
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.spec import load_spec
 from armcal.units import from_internal
 

@@ -31,7 +31,7 @@ sys.path.insert(0, str(ROOT))
 import numpy as np  # noqa: E402
 
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve  # noqa: E402
-from armcal.new_spec import new_spec_text  # noqa: E402
+from armcal.commands.new import new_spec_text  # noqa: E402
 from armcal.report.plan_plots import accuracy_plot  # noqa: E402
 from armcal.robot_library import library_robot  # noqa: E402
 from armcal.spec import load_spec  # noqa: E402

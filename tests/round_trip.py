@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from ruamel.yaml import YAML
 
-from armcal import pipeline
+from armcal.commands import run as pipeline
 from armcal.dataio.reader import read_measurements
 from armcal.diagnose.calibration import calibration_problem, identify_and_diagnose
 from armcal.kinematics.compiler import compile_robot
-from armcal.pipeline import fitted_device, run
+from armcal.commands.run import fitted_device, run
 from armcal.spec import load_spec
 
 

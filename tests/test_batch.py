@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 from conftest import ROOT, SPECS, armcal_cli
 
-from armcal.batch import batch, exit_code, jobs
-from armcal.terminal import batch_summary
-from armcal.montecarlo_command import montecarlo
+from armcal.commands.batch import batch, exit_code, jobs
+from armcal.commands.terminal import batch_summary
+from armcal.commands.montecarlo import montecarlo
 
 FLEET = [ROOT / "examples" / "goswami_ballbar" / "spec.yaml", ROOT / "examples" / "theodolite" / "spec.yaml"]
 

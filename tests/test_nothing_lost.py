@@ -7,7 +7,7 @@ import sys
 import pytest
 from conftest import ROOT, copy_example
 
-from armcal.pipeline import run
+from armcal.commands.run import run
 
 EXAMPLE = ROOT / "examples" / "theodolite"
 

@@ -14,7 +14,7 @@ import pytest
 from conftest import EXAMPLE_DATA, ROOT, armcal_cli, copy_example
 
 from armcal.output_set import MANIFEST
-from armcal.pipeline import run
+from armcal.commands.run import run
 
 EXAMPLE = ROOT / "examples" / "theodolite"
 
@@ -197,7 +197,7 @@ def test_a_full_disk_keeps_the_previous_set(workspace, tmp_path_factory):
 
 
 def test_a_fleet_reports_every_robot_even_after_an_internal_error(workspace, monkeypatch):
-    import armcal.batch as fleet
+    import armcal.commands.batch as fleet
 
     other = workspace / "other"
     other.mkdir()

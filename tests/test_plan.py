@@ -26,7 +26,7 @@ from armcal.devices import device_model
 from armcal.evaluate.montecarlo import robot_seeds
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve
 from armcal.kinematics.compiler import compile_robot
-from armcal.new_spec import new_spec_text
+from armcal.commands.new import new_spec_text
 from armcal.procedures import pose_selection as ps
 from armcal.report.plan_plots import accuracy_plot
 from armcal.robot_library import library_robot
@@ -204,7 +204,7 @@ def test_a_theodolite_plan_keeps_its_scale_bar_and_reports_angles(tmp_path):
 def test_plan_outputs_that_are_one_file_are_refused_with_force_before_anything_is_written(kuka, tmp_path, monkeypatch, how):
     """POSES.csv and POSES.json beside it are two files, or the plan is refused (issue 30 class 3)."""
     from armcal.errors import UserError
-    from armcal.planner import plan_command
+    from armcal.commands.plan import plan_command
 
     monkeypatch.chdir(tmp_path)
     out = {"the same name": tmp_path / "p.json", "./ and a suffix": "./sub/../p.json", "a link": tmp_path / "l.csv",

@@ -18,7 +18,7 @@ from robot_urdfs import CHAINS, urdf_flange_pose
 
 from armcal.kinematics.compiler import compile_robot
 from armcal.devices.registry import INSTRUMENTS
-from armcal.new_spec import new_spec_text
+from armcal.commands.new import new_spec_text
 from armcal.robot_library import library_robot, names
 from armcal.spec import load_spec
 

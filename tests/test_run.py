@@ -9,7 +9,7 @@ import sys
 import pytest
 from conftest import ROOT, copy_example
 
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.results.schema import Results
 from armcal.spec import load_spec
 

@@ -16,7 +16,7 @@ from round_trip import recorded_fits, round_trip
 from armcal.export.compensation import compensate
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.transforms import compose, pose_from_matrix, rot_x, rot_y, rot_z, trans, xyz_zyx
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.spec import load_spec
 
 SERIES = SHARED_DATA / "ipa-robot-accuracy"

@@ -8,7 +8,7 @@ import pytest
 
 from conftest import EXAMPLE_DATA, ROOT, copy_example
 
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.spec import load_spec
 
 EXAMPLE = ROOT / "examples" / "goswami_ballbar"

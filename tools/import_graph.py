@@ -1,7 +1,7 @@
 """The import graph among armcal's sub-packages and root modules, and its cycles.
 
 Each node is a top-level name under armcal/: a sub-package (`spec`, `kinematics`, ...) or a
-root module (`cli`, `pipeline`, ...). An edge A -> B means some file of A imports something
+root module (`cli`, `units`, ...). An edge A -> B means some file of A imports something
 of B. Every import statement counts, wherever it stands: at module level, inside a function
 (a lazy import) or under `if TYPE_CHECKING`. Imports within one node are not edges; a module named
 by a string to importlib is not seen (armcal names none).

@@ -28,7 +28,7 @@ from armcal.devices import device_model
 from armcal.identify.identifiability import analyse
 from armcal.identify.problem import build_problem
 from armcal.kinematics.compiler import compile_robot
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.simulate import find_truth
 from armcal.spec import load_spec
 

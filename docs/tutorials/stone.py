@@ -7,7 +7,7 @@
 2. The grid-touching task (S 7.2.1, Table 7-1) on the shipped example's true robot under
    design-model and under signature-model (calibrated) control, run by armcal's pipeline
    (`armcal run`): the 34 indices and their improvement factors, next to Tables 6-10, 6-11.
-3. The Monte-Carlo study of chapter 7 (armcal.montecarlo_command): the slope of log(std) of the
+3. The Monte-Carlo study of chapter 7 (armcal.commands.montecarlo): the slope of log(std) of the
    34 indices against log(swept value) for the noise factor k (7.4.3), the points per
    circle N_i (7.4.4), the target radius R (7.4.5) and the encoder error sigma_e (7.4.1).
 
@@ -31,8 +31,8 @@ from armcal.devices import device_model
 from armcal.evaluate.grid import TaskControl, grid_indices
 from armcal.identify import stone_features
 from armcal.kinematics.compiler import compile_robot
-from armcal.montecarlo_command import montecarlo
-from armcal.pipeline import run
+from armcal.commands.montecarlo import montecarlo
+from armcal.commands.run import run
 from armcal.procedures.tasks import grid_task
 from armcal.simulate.campaign import CampaignSimulator
 from armcal.simulate.truth import TrueRobot
@@ -199,7 +199,7 @@ def grid_summary(indices: list[dict]) -> list[dict]:
 
 
 def monte_carlo(runs: int = RUNS, sweeps: list[str] = SWEEPS) -> dict:
-    """armcal.montecarlo_command at every sweep; the summaries (montecarlo.json) by variable."""
+    """armcal.commands.montecarlo at every sweep; the summaries (montecarlo.json) by variable."""
     out = {}
     with tempfile.TemporaryDirectory() as folder:
         for sweep in sweeps:

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from armcal.pipeline import run
+from armcal.commands.run import run
 from conftest import ROOT
 from independent_sim import DEG, STATIONS, station_jacobians, write_stationed_campaign
 

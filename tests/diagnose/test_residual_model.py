@@ -23,9 +23,9 @@ from armcal.dataio.reader import read_measurements
 from armcal.diagnose.calibration import identify_and_diagnose
 from armcal.diagnose.residual_model import MAX_TRAINING, fit_coordinate, spread_subset
 from armcal.kinematics.compiler import compile_robot
-from armcal.pipeline import fitted_device, residual_model_note, run
+from armcal.commands.run import fitted_device, residual_model_note, run
 from armcal.spec import load_spec
-from armcal.terminal import run_summary
+from armcal.commands.terminal import run_summary
 
 DEG = np.pi / 180.0
 BEND = 0.12  # mm
@@ -177,7 +177,7 @@ def test_far_predictions_are_outside_unless_the_coordinate_learned_nothing():
 
 
 def test_scikit_learn_is_imported_only_when_a_spec_asks_for_the_model():
-    code = "import sys, armcal.cli, armcal.pipeline, armcal.export, armcal.diagnose.residual_model; print('sklearn' in sys.modules)"
+    code = "import sys, armcal.cli, armcal.commands.run, armcal.export, armcal.diagnose.residual_model; print('sklearn' in sys.modules)"
     shown = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert shown.stdout.strip() == "False", shown.stderr
 

@@ -13,7 +13,7 @@ from test_diagnosis import TRACKER, _data, _spec
 from armcal.diagnose.loop import Context, contiguous_folds, folds_along, holds_out, run_diagnosis
 from armcal.effects.library import EffectSpec, coupling
 from armcal.effects.measurement import EffectSet
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.spec.sections import Diagnose, Fit
 
 TWO_EFFECTS = "    - {type: gear_harmonic, joint: 2, order: 1, sin: 0.004 deg, cos: 0.002 deg}\n    - {type: backlash, joint: 3, half_width: 0.004 deg}\n"

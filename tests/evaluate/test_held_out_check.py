@@ -16,8 +16,8 @@ from conftest import armcal_cli, copy_example
 from armcal.evaluate.held_out_check import NOISE_MULTIPLE, _chi2
 from armcal.identify.precision import WEAK
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
-from armcal.pipeline import run
-from armcal.terminal import held_out_lines
+from armcal.commands.run import run
+from armcal.commands.terminal import held_out_lines
 
 NOISE_MM = 0.025  # examples/hidden_harmonic: device.noise 0.0025 cm
 

@@ -22,7 +22,7 @@ from conftest import ROOT
 
 from armcal.evaluate.sweeps import parse_sweep, variant
 from armcal.kinematics.compiler import compile_robot
-from armcal.montecarlo_command import montecarlo
+from armcal.commands.montecarlo import montecarlo
 from armcal.spec import load_spec
 
 SONIC = ROOT / "examples" / "puma560_sonic" / "spec.yaml"

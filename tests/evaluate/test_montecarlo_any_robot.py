@@ -16,7 +16,7 @@ from test_task_placement import SCARA
 from armcal.errors import UserError
 from armcal.evaluate.grid import ORIENTATION, RADIAL, unobserved_orientation
 from armcal.evaluate.montecarlo import RobotStudy
-from armcal.montecarlo_command import montecarlo
+from armcal.commands.montecarlo import montecarlo
 from armcal.spec import load_spec
 
 HIDDEN_HARMONIC = ROOT / "examples" / "hidden_harmonic" / "spec.yaml"
@@ -100,7 +100,7 @@ def test_the_study_predicts_held_out_accuracy_against_the_number_of_poses(tmp_pa
     times the random poses leave a smaller error (noise averaged over 3x the readings); the plot is written."""
     from armcal.evaluate.montecarlo import robot_seeds
     from armcal.evaluate.plan_accuracy import PlanStudy
-    from armcal.planner import DEFAULT_CANDIDATES
+    from armcal.commands.plan import DEFAULT_CANDIDATES
 
     study = montecarlo(UR10, 3, out_dir=tmp_path / "a", workers=1, seed=5, poses=[15])
     curve = study.summary["accuracy_vs_poses"]
@@ -115,7 +115,7 @@ def test_the_study_predicts_held_out_accuracy_against_the_number_of_poses(tmp_pa
 
 
 def test_a_poses_list_that_is_not_numbers_is_a_user_error():
-    from armcal.montecarlo_command import pose_counts
+    from armcal.commands.montecarlo import pose_counts
 
     assert pose_counts("30,15,30") == [15, 30]
     for bad in ("15;30", "0,15", "a"):

@@ -17,7 +17,7 @@ from ruamel.yaml import YAML
 from armcal.export.compensation import compensate
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.transforms import pose_from_matrix, xyz_zyx
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.spec import load_spec
 
 ROBOT, DEVICE, TARGETS = "ur_like", "tracker", 60

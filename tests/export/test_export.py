@@ -14,7 +14,7 @@ from conftest import SPECS, armcal_cli, copy_example, random_configurations
 from armcal.export import export
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.transforms import pose_from_matrix
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.spec import load_spec
 
 CALIBRATED_UR10 = [  # a UR10 with calibration-sized deviations, Hayati's beta, a base, a tool and a point target

@@ -181,7 +181,7 @@ def test_lm_stopping_does_not_depend_on_the_noise_scale():
 def test_kfold_folds_keep_the_full_fits_base_set(tmp_path, monkeypatch):
     """Without a validation set the diagnosis cross-validates: every fold fits the base set of the full fit."""
     import armcal.diagnose.loop as loop
-    from armcal.pipeline import run
+    from armcal.commands.run import run
 
     folder = ROOT / "examples" / "hidden_harmonic"
     text = (folder / "spec.yaml").read_text().replace("  validation: validation.csv\n", "")
@@ -264,7 +264,7 @@ validation: {type: poses, count: 80, seed: 2}
 def test_a_reflector_on_the_last_axis_leaves_the_flange_at_its_nominal(tmp_path):
     """The small arm of issue 13: no reading sees joint 6's frame, the reflector carries what the data see,
     and the compliance (default masses) frees none of the flange's parameters."""
-    from armcal.pipeline import run
+    from armcal.commands.run import run
     from armcal.simulate import write_simulation
 
     (tmp_path / "spec.yaml").write_text(SMALL_ARM)

@@ -25,7 +25,7 @@ from armcal.identify import compiled as cache
 from armcal.identify.problem import _value_and_jacobian
 from armcal.effects.measurement import EffectSet
 from armcal.kinematics.compiler import compile_robot
-from armcal.pipeline import fitted_device
+from armcal.commands.run import fitted_device
 from armcal.spec import load_spec
 
 EXAMPLES = ("goswami_ballbar", "hidden_harmonic", "puma560_sonic", "theodolite")

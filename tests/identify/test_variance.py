@@ -298,7 +298,7 @@ def test_a_range_noise_model_keeps_estimating_in_the_calibrated_spec(tmp_path):
     and a run of it estimates the same sigma, to a tenth of its standard deviation."""
     from conftest import copy_example
 
-    from armcal.pipeline import run
+    from armcal.commands.run import run
 
     copy_example("puma560_sonic", tmp_path)
     spec = tmp_path / "spec.yaml"

@@ -14,7 +14,7 @@ import urdf_oracle
 from conftest import ROOT, armcal_cli
 
 from armcal.kinematics.compiler import compile_robot
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.spec import load_spec
 
 HALF = "1.5707963267948966"

@@ -7,7 +7,7 @@ from conftest import SPECS, armcal_cli
 
 from armcal.devices.registry import INSTRUMENTS
 from armcal.kinematics.axis_targets import targets_on_axes
-from armcal.new_spec import new_spec_text
+from armcal.commands.new import new_spec_text
 from armcal.robot_library import library_robot, names
 from armcal.spec import load_spec
 

@@ -13,7 +13,7 @@ from conftest import ROOT, armcal_cli, copy_example, shipped_specs
 
 from armcal.errors import SpecError
 from armcal.evaluate.acceptance import rms_uncertainty
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.report.context import certificate_context
 from armcal.report.render import PACKAGED, render_html
 from armcal.simulate import find_truth

@@ -13,7 +13,7 @@ import pytest
 from conftest import armcal_cli
 from independent_sim import COUNTS, TRACKER, readings, sample_configurations, spec_text, true_geometry, write_csv
 
-from armcal.pipeline import run
+from armcal.commands.run import run
 
 ROBOT, DEVICE = "puma560", "tracker"
 

@@ -13,7 +13,7 @@ from conftest import armcal_cli
 from independent_sim import pose
 from robot_urdfs import Chain, Joint, urdf_flange_pose
 
-from armcal.pipeline import run
+from armcal.commands.run import run
 from armcal.results.compare import compare
 from armcal.evaluate.position_changes import RunModel, poses, predicted, run_model
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from armcal.errors import UserError, shown_text
 from armcal.fileio import output_folder, write_text_atomic
-from armcal.pipeline import default_out_dir, run
+from armcal.commands.run import default_out_dir, run
 from armcal.workers import check_workers, run_tasks
 
 

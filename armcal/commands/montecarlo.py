@@ -31,7 +31,7 @@ from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve, accuracy_la
 from armcal.evaluate.study_statistics import index_statistics, trend
 from armcal.evaluate.sweeps import VARIABLES, Sweep, parse_sweep, variant
 from armcal.identify.threads import processors
-from armcal.planner import DEFAULT_CANDIDATES
+from armcal.commands.plan import DEFAULT_CANDIDATES
 from armcal.procedures.tasks import grid_task
 from armcal.report.study_plots import study_plots
 from armcal.spec import load_spec

@@ -37,15 +37,17 @@ class IKResult:
     rotation_error: np.ndarray  # (N,) norm of the axis-column differences (~ rad for small errors)
 
 
-def error_function(model: KinematicModel, frame: str | None = None, full_pose: bool = True) -> ca.Function:
-    """delta(q, p, goal) and d delta / d q; goal = [p*, x*, y*, z*] (pose) or [p*, z*] (point + axis). The solvers
-    build it for each call; a caller that solves many times may build it once (and compile it) and pass it as ``error``."""
+def error_function(model: KinematicModel, frame: str | None = None, full_pose: bool = True, width: int | None = None) -> ca.Function:
+    """delta(q, p, goal) and d delta / d q; goal = [p*, x*, y*, z*] (pose), [p*, z*] (point + axis) or, with
+    ``width`` 3, [p*] (a point, any orientation). The solvers build it for each call; a caller that solves many times
+    may build it once (and compile it) and pass it as ``error``."""
     q = ca.SX.sym("q", model.dof)
     p = ca.SX.sym("p", len(model.parameters))
     T = model.fk(q, p) if frame is None else model.targets[frame](q, p)
-    goal = ca.SX.sym("goal", 12 if full_pose else 6)
+    width = width or (12 if full_pose else 6)
+    goal = ca.SX.sym("goal", width)
     position = T[:3, 3] - goal[:3]
-    axes = ca.vertcat(T[:3, 0], T[:3, 1], T[:3, 2]) if full_pose else T[:3, 2]
+    axes = {12: ca.vertcat(T[:3, 0], T[:3, 1], T[:3, 2]), 6: T[:3, 2], 3: ca.SX(0, 1)}[width]
     delta = ca.vertcat(position, axes - goal[3:])
     return ca.Function("ik_error", [q, p, goal], [delta, ca.jacobian(delta, q)])
 
@@ -62,9 +64,9 @@ def solve(
     halvings: int = 0,
     error: ca.Function | None = None,
 ) -> IKResult:
-    """Solve N goals (N, 12) poses [p, x-axis, y-axis, z-axis] or (N, 6) [p, z-axis] from q0 (N, n) or (n,)."""
+    """Solve N goals (N, 12) poses [p, x-axis, y-axis, z-axis], (N, 6) [p, z-axis] or (N, 3) [p] from q0 (N, n) or (n,)."""
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
-    function = error if error is not None else error_function(model, frame, goals.shape[1] == 12)
+    function = error if error is not None else error_function(model, frame, width=goals.shape[1])
     return _newton(_evaluator(function), model.dof, goals, q0, model.parameter_vector(p), tol_position, tol_rotation, max_iterations, halvings)
 
 
@@ -80,7 +82,7 @@ def solve_in_order(model: KinematicModel, goals: np.ndarray, q0: np.ndarray, hal
     another root are taken. The block doubles while every guess holds and shrinks to what held when one does not:
     down to one goal, the chain itself, where neighbouring goals lie far apart."""
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
-    function = _evaluator(error if error is not None else error_function(model, None, goals.shape[1] == 12))
+    function = _evaluator(error if error is not None else error_function(model, None, width=goals.shape[1]))
     p = model.parameters.nominal
 
     def newton(rows: slice, q: np.ndarray, iterations: int = MAX_ITERATIONS, steps_halved: int = halvings) -> IKResult:

@@ -81,20 +81,35 @@ class TaskControl:
     q_design: np.ndarray  # (N, n)
     frame: str | None = None
     teach: bool = False
+    goal: int = 12  # what both controls command of a frame: its pose (12), its point and z axis (6), its point (3)
 
     @staticmethod
-    def plan(kinematics, desired: np.ndarray, p_design: np.ndarray, frame: str | None = None, teach: bool = False) -> "TaskControl | None":
-        """The task solved with the design model; None when the design model cannot reach it."""
+    def plan(kinematics, desired: np.ndarray, p_design: np.ndarray, frame: str | None = None, teach: bool = False,
+             goal: int = 12, known: np.ndarray | None = None) -> "TaskControl | None":
+        """The task solved with the design model; None when the design model cannot reach it. With a ``goal`` short of
+        the pose (a robot of fewer axes, procedures/placement.py), the desired orientation is the design model's at its
+        solution: the one design-model control commands. ``known``: joints (N, n) the placement found reaching the
+        frames, taken where the random starts find none."""
         from armcal.kinematics import ik
+        from armcal.procedures.placement import goal_rows
 
-        q_design = ik.solve_from_starts(kinematics, ik.pose_goals(desired), frame=frame, p=p_design, starts=48)  # few goals: afford many starts
-        return None if np.isnan(q_design).any() else TaskControl(kinematics, desired, q_design, frame, teach)
+        q_design = ik.solve_from_starts(kinematics, goal_rows(desired, goal), frame=frame, p=p_design, starts=48)  # few goals: afford many starts
+        if known is not None:
+            q_design = np.where(np.isnan(q_design), known, q_design)
+        if np.isnan(q_design).any():
+            return None
+        if goal != 12:
+            reached = kinematics.target_poses(frame, q_design, p_design) if frame else kinematics.tool_poses(q_design, p_design)
+            desired = desired.copy()
+            desired[:, :3, :3] = reached[:, :3, :3]
+        return TaskControl(kinematics, desired, q_design, frame, teach, goal)
 
     def reached(self, truth, p_calibrated: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Frames (N, 4, 4) the true robot reaches under design-model and under calibrated control."""
         from armcal.kinematics import ik
+        from armcal.procedures.placement import goal_rows
 
-        goals = ik.pose_goals(self.desired)
+        goals = goal_rows(self.desired, self.goal)
         q_calibrated = ik.solve(self.kinematics, goals, self.q_design, frame=self.frame, p=p_calibrated, halvings=ik.SAFE_HALVINGS).q
         count = len(self.desired)
         extras = {"t": np.zeros(count), "temperature": np.full(count, 20.0), "dir": np.ones((count, self.kinematics.dof))}
@@ -115,7 +130,7 @@ def iso9283_evaluation(kinematics, p_design, p_calibrated, truth, units, cube, f
     largest one the robot reaches.
     """
     from armcal.kinematics.transforms import compose, rot_y, rot_z
-    from armcal.procedures.placement import Placement, placed
+    from armcal.procedures.placement import Placement, placed, unplaced
     from armcal.procedures.tasks import iso9283_cube
     from armcal.units import from_internal
 
@@ -126,8 +141,8 @@ def iso9283_evaluation(kinematics, p_design, p_calibrated, truth, units, cube, f
     else:
         stands = placed("iso9283", kinematics, p_design, frame)
         if stands is None:
-            return {"skipped": "no ISO 9283 cube is reachable by this robot's design model: not even a small one near the centre of its workspace"}
-    control = TaskControl.plan(kinematics, stands.frames, p_design, frame, teach)
+            return {"skipped": f"no ISO 9283 cube is reachable by this robot's design model: {unplaced('iso9283', kinematics, p_design, frame)}"}
+    control = TaskControl.plan(kinematics, stands.frames, p_design, frame, teach, stands.goal, stands.q)
     if control is None:
         return {"skipped": "the ISO 9283 cube the spec gives (report.iso9283_cube) is not reachable by this robot's design model"}
     rows = []
@@ -154,8 +169,14 @@ def index_kind(name: str) -> str:
 
 
 TABLE_7_1 = "Table 7-1 (Stone 7.2.1), where the PUMA 560 reaches it"
-GRID_UNREACHABLE = ("Stone's grid is reachable by this robot's design model neither at Table 7-1 nor, scaled to its reach "
-                    "(or to 3/4 or 1/2 of that), anywhere near the centre of its workspace")
+GRID_UNREACHABLE = "Stone's grid is reachable by this robot's design model neither at Table 7-1 nor, scaled, near the centre of its workspace"
+
+
+def grid_unreachable(kinematics, p_design: np.ndarray, frame: str | None = None) -> str:
+    """Why the grid has no place (GRID_UNREACHABLE and the numbers of the search, procedures/placement.unplaced)."""
+    from armcal.procedures.placement import unplaced
+
+    return f"{GRID_UNREACHABLE}: {unplaced('grid_task', kinematics, p_design, frame)}"
 
 
 def grid_control(kinematics, p_design: np.ndarray, frame: str | None = None, teach: bool = False):
@@ -172,7 +193,7 @@ def grid_control(kinematics, p_design: np.ndarray, frame: str | None = None, tea
         vertices = control.desired[:, :3, 3]
         return control, Placement(control.desired, (vertices.min(axis=0) + vertices.max(axis=0)) / 2, 1.0, TABLE_7_1)
     stands = placed("grid_task", kinematics, p_design, frame)  # another robot: the grid in its own workspace
-    control = None if stands is None else TaskControl.plan(kinematics, stands.frames, p_design, frame, teach)
+    control = None if stands is None else TaskControl.plan(kinematics, stands.frames, p_design, frame, teach, stands.goal, stands.q)
     return None if control is None else (control, stands)
 
 
@@ -197,7 +218,7 @@ def grid_evaluation(
 
     solved = grid_control(kinematics, p_design, frame, teach)
     if solved is None:
-        return {"skipped": GRID_UNREACHABLE}
+        return {"skipped": grid_unreachable(kinematics, p_design, frame)}
     control, stands = solved
     reached_design, reached_calibrated = control.reached(truth, p_calibrated)
     design = grid_indices(reached_design, control.desired)

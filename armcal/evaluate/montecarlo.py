@@ -27,7 +27,7 @@ import numpy as np
 from armcal.devices import device_model
 from armcal.diagnose.calibration import calibration_problem
 from armcal.errors import UserError
-from armcal.evaluate.grid import GRID_UNREACHABLE, grid_control, grid_indices, measured_point
+from armcal.evaluate.grid import grid_control, grid_indices, grid_unreachable, measured_point
 from armcal.identify.feature_method import feature_parameters
 from armcal.identify.fit import FitResult, fit
 from armcal.identify.problem import combined_parameters
@@ -69,7 +69,7 @@ class RobotStudy:
         teach = spec.device.base_frame_free(free)
         solved = grid_control(kinematics, kinematics.parameters.nominal, measured_point(spec), teach)
         if solved is None:
-            raise UserError(f"{GRID_UNREACHABLE}; a Monte-Carlo study needs it")
+            raise UserError(f"{grid_unreachable(kinematics, kinematics.parameters.nominal, measured_point(spec))}; a Monte-Carlo study needs it")
         self.control, self.grid = solved
         self.design = None  # the base set, decided at the first robot's start and kept for the others
 

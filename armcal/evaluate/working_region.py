@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 from armcal.errors import UserError
-from armcal.evaluate.grid import grid_control, measured_point
+from armcal.evaluate.grid import grid_control, grid_unreachable, measured_point
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, rot_y, rot_z
-from armcal.procedures.placement import placed
+from armcal.procedures.placement import placed, unplaced
 from armcal.procedures.regions import Region
 from armcal.spec.document import Spec
 
@@ -35,13 +35,13 @@ def working_region(spec: Spec, kinematics: KinematicModel, name: str, oriented: 
         else:
             stands = placed("iso9283", kinematics, p, frame)
             if stands is None:
-                raise UserError("--region iso_cube: the robot's design model reaches no ISO 9283 cube near the centre of its workspace")
+                raise UserError(f"--region iso_cube: the robot's design model reaches no ISO 9283 cube: {unplaced('iso9283', kinematics, p, frame)}")
             centre, side, how, rotation = stands.centre, stands.size, stands.how, stands.frames[0, :3, :3]
         return Region(name, centre - side / 2, centre + side / 2, frame, how, rotation, oriented)
     if name == "grid":
         solved = grid_control(kinematics, p, frame)
         if solved is None:
-            raise UserError("--region grid: the robot's design model reaches Stone's grid neither at Table 7-1 nor scaled in its workspace")
+            raise UserError(f"--region grid: {grid_unreachable(kinematics, p, frame)}")
         frames = solved[1].frames
         return Region(name, frames[:, :3, 3].min(axis=0), frames[:, :3, 3].max(axis=0), frame, solved[1].how, frames[0, :3, :3], oriented)
     raise UserError(f"--region {name}: choose one of {', '.join(REGIONS)}")

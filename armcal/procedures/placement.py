@@ -28,7 +28,7 @@ placed by position alone. A robot reaching no task says why, with its reach and 
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -53,13 +53,15 @@ JUDGED = {POSE: "judged on position and orientation",
 @dataclass(frozen=True)
 class Placement:
     """Where a task stands: the frames to reach (N, 4, 4), in mm, and how they were chosen; ``goal``: the width of its
-    inverse kinematics' goals (POSE, AXIS or POINT), what the robot holds of the frames."""
+    inverse kinematics' goals (POSE, AXIS or POINT), what the robot holds of the frames; ``q``: joints (N, n) within the
+    limits at which the design model reaches them, the search's certificate (None: not searched)."""
 
     frames: np.ndarray
     centre: np.ndarray  # mm, robot base (world) frame
     size: float  # the grid's scale (1: Table 7-1's size), or the cube's side in mm
     how: str
     goal: int = POSE
+    q: np.ndarray | None = None
 
 
 def goal_rows(frames: np.ndarray, width: int) -> np.ndarray:
@@ -96,9 +98,14 @@ class Workspace:
         self.why: dict[str, str] = {}  # why a task (its name) was not placed: the reach, the smallest size tried, where
 
     def reached(self, frames: np.ndarray, width: int = POSE) -> np.ndarray:
+        """Whether the design model reaches each frame (..., 4, 4) within its joint limits (solutions)."""
+        return self.solutions(frames, width)[0]
+
+    def solutions(self, frames: np.ndarray, width: int = POSE) -> tuple[np.ndarray, np.ndarray]:
         """Whether the design model reaches each frame (..., 4, 4) within its joint limits, the goal of the given width:
         Newton-Raphson (Stone 5.4) from the sampled configurations nearest the frame (position, and the goal's
-        orientation part at the reach's scale): the nearest first, the next ones (STARTS) only for the frames not reached."""
+        orientation part at the reach's scale): the nearest first, the next ones (STARTS) only for the frames not reached.
+        Returns (reached (...), joints (..., n) within the limits reaching them, NaN where not reached)."""
         shape, frames = frames.shape[:-2], frames.reshape(-1, 4, 4)
         distance = np.linalg.norm(frames[:, None, :3, 3] - self.poses[None, :, :3, 3], axis=2)
         if width != POINT:
@@ -109,6 +116,7 @@ class Workspace:
         nearest = np.argpartition(distance, starts, axis=1)[:, :starts]
         nearest = np.take_along_axis(nearest, np.argsort(np.take_along_axis(distance, nearest, axis=1), axis=1), axis=1)
         goals, done, todo = goal_rows(frames, width), np.zeros(len(frames), dtype=bool), np.arange(len(frames))
+        Q = np.full((len(frames), self.kinematics.dof), np.nan)
         if width not in self._errors:
             self._errors[width] = ik.error_function(self.kinematics, self.frame, width=width)
         for first, count in zip(np.cumsum((0, *STARTS[:-1])), STARTS):
@@ -117,11 +125,14 @@ class Workspace:
             starts = nearest[todo, first : first + count]
             solved = ik.solve(self.kinematics, np.repeat(goals[todo], count, axis=0), self.samples[starts.ravel()], frame=self.frame,
                               p=self.p, tol_position=1e-4, tol_rotation=1e-6, max_iterations=ITERATIONS, error=self._errors[width])
-            good = solved.converged & ik.within_limits(self.kinematics, ik.wrap_into_limits(self.kinematics, solved.q))
-            good = good.reshape(len(todo), count).any(axis=1)
-            done[todo[good]] = True
-            todo = todo[~good]
-        return done.reshape(shape)
+            wrapped = ik.wrap_into_limits(self.kinematics, solved.q)
+            good = (solved.converged & ik.within_limits(self.kinematics, wrapped)).reshape(len(todo), count)
+            first_good = np.argmax(good, axis=1)
+            reached = good.any(axis=1)
+            Q[todo[reached]] = wrapped.reshape(len(todo), count, -1)[np.flatnonzero(reached), first_good[reached]]
+            done[todo[reached]] = True
+            todo = todo[~reached]
+        return done.reshape(shape), Q.reshape(*shape, -1)
 
     def judged(self, width: int) -> str:
         return JUDGED[width].format(dof=self.kinematics.dof)
@@ -162,7 +173,7 @@ def _place(space: Workspace, task, highest: float, name: str, describe) -> Place
             how = (f"{describe(sizes[k])}, the largest (to {highest / 2**BISECTIONS:.3g}) whose copy grown {MARGIN:.0%} about its centre "
                    f"the robot also reaches, found by bisection at {len(space.centres)} candidate centres around its workspace's centre "
                    f"(reach {space.reach:.0f} mm), placed by armcal; orientation {label}; {space.judged(width)}")
-            return Placement(_oriented(task(space.centres[k], sizes[k]), rotation), space.centres[k], float(sizes[k]), how, width)
+            return Placement(_oriented(task(space.centres[k], sizes[k]), rotation), space.centres[k], float(sizes[k]), how, width, None)
     space.why[name] = (f"with a horizontal reach of {space.reach:.0f} mm, no {name} down to {describe(highest / 2**BISECTIONS)} "
                                     f"(grown {MARGIN:.0%}) is reached at any of {len(space.centres)} centres within {STEP * space.reach:.0f} mm of "
                                     f"the workspace's centre ({', '.join(f'{v:.0f}' for v in space.centre)}) mm, at any orientation the robot holds")
@@ -175,11 +186,16 @@ def grid_vertices(scale: float) -> np.ndarray:
     return scale * (vertices - (vertices.min(axis=0) + vertices.max(axis=0)) / 2)
 
 
+def _solved(space: Workspace, stands: Placement | None) -> Placement | None:
+    """The placement with the joints that reach its frames (Placement.q)."""
+    return None if stands is None else replace(stands, q=space.solutions(stands.frames, stands.goal)[1])
+
+
 def place_grid(space: Workspace) -> Placement | None:
     """Table 7-1's vertices at the largest scale the robot reaches with margin (module doc); None where none is."""
     highest = 2 * space.reach / ((1 + MARGIN) * 10.0 * np.ptp(GRID_VERTICES_CM, axis=0).max())  # the grown grid as wide as the reach's diameter
-    return _place(space, lambda c, s: c + grid_vertices(s), highest, "Stone's grid",
-                  lambda s: f"Table 7-1's grid scaled by {s:.3g} (the PUMA's reach {PUMA_REACH:.0f} mm, this robot's {space.reach:.0f} mm)")
+    return _solved(space, _place(space, lambda c, s: c + grid_vertices(s), highest, "Stone's grid",
+                                 lambda s: f"Table 7-1's grid scaled by {s:.3g} (the PUMA's reach {PUMA_REACH:.0f} mm, this robot's {space.reach:.0f} mm)"))
 
 
 CORNERS = np.array(list(itertools.product((-0.5, 0.5), repeat=3)))
@@ -193,7 +209,7 @@ def place_cube(space: Workspace) -> Placement | None:
     if stands is None:
         return None
     poses = iso9283_cube(stands.centre, stands.size, stands.frames[0, :3, :3])
-    return Placement(poses, stands.centre, stands.size, stands.how, stands.goal)
+    return _solved(space, Placement(poses, stands.centre, stands.size, stands.how, stands.goal))
 
 
 _PLACED: dict[tuple, Placement | None] = {}  # per process: a design's placement serves every campaign and run of it

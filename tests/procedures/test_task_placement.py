@@ -13,7 +13,7 @@ from conftest import armcal_cli
 
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import compile_robot
-from armcal.procedures.placement import Workspace, place_cube, place_grid
+from armcal.procedures.placement import MARGIN, POSE, Workspace, place_cube, place_grid
 from armcal.spec import load_spec
 
 # An Epson-like SCARA: two horizontal links, a prismatic quill, a wrist turn; the tool points down (alpha 180).
@@ -78,17 +78,14 @@ def test_placed_frames_are_reached_and_the_cube_is_the_largest(tmp_path, robot):
     chain = compile_robot(spec.robot)
     space = Workspace(chain, chain.parameters.nominal, "reflector")
     for placed in (place_grid(space), place_cube(space)):
-        assert placed is not None
-        goals = ik.pose_goals(placed.frames)
-        Q = ik.solve_from_starts(chain, goals, frame="reflector", starts=24)
-        assert not np.isnan(Q).any()
-        reached = chain.target_poses("reflector", Q)
-        np.testing.assert_allclose(reached, placed.frames, atol=1e-4)  # the inverse kinematics' own tolerance, mm
+        assert placed is not None and placed.goal == POSE and "judged on position and orientation" in placed.how
+        assert ik.within_limits(chain, placed.q).all()  # the search's joints: within the limits, reaching every frame
+        np.testing.assert_allclose(chain.target_poses("reflector", placed.q), placed.frames, atol=1e-4)  # the inverse kinematics' own tolerance, mm
     cube = place_cube(space)
     c, side = cube.centre, cube.size
     corners = c + side / 2 * np.array([[-1, -1, -1], [1, 1, -1], [1, 1, 1], [-1, -1, 1]])
     np.testing.assert_allclose(cube.frames[0, :3, 3], c)
     np.testing.assert_allclose(cube.frames[1:, :3, 3], c + 0.8 * (corners - c))  # ISO 9283: 10 % of the diagonal in
-    larger = np.repeat(cube.frames[:1], 8, axis=0)  # the corners of a cube 15 % larger, oriented as the test poses
-    larger[:, :3, 3] = c + 1.15 * side / 2 * np.array(list(itertools.product((-1, 1), repeat=3)))
+    larger = np.repeat(cube.frames[:1], 8, axis=0)  # the corners of a cube 15 % larger than the margin's, oriented as the test poses
+    larger[:, :3, 3] = c + 1.15 * (1 + MARGIN) * side / 2 * np.array(list(itertools.product((-1, 1), repeat=3)))
     assert np.isnan(ik.solve_from_starts(chain, ik.pose_goals(larger), frame="reflector", starts=48)).any()

@@ -88,7 +88,8 @@ class Workspace:
         self.centre = base + np.array([*(radius * ahead), np.median(offsets[:, 2])])  # the median reach, straight ahead
         nearest = poses[np.argmin(np.linalg.norm(poses[:, :3, 3] - self.centre, axis=1))]
         stone = compose(rot_y(np.pi), rot_z(np.pi / 2))[:3, :3]
-        held = [] if kinematics.dof < 6 else [("Stone 7.2.1's, tool pointing down", stone, POSE), ("the robot's at its workspace's centre", nearest[:3, :3], POSE)]
+        held = [("Stone 7.2.1's, tool pointing down", stone, POSE), ("the robot's at its workspace's centre", nearest[:3, :3], POSE)]
+        held = held if kinematics.dof >= 6 else []  # fewer axes hold no full orientation at will
         self.orientations = held + [("the tool's axis pointing down, its turn about it free", stone, AXIS),
                                     ("the tool's axis as at the workspace's centre, its turn about it free", nearest[:3, :3], AXIS),
                                     ("any", nearest[:3, :3], POINT)]

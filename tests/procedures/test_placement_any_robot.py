@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import zoo
 from conftest import armcal_cli
+from test_task_placement import SCARA
 
 from armcal.errors import UserError
 from armcal.evaluate.grid import measured_point
@@ -27,29 +28,11 @@ from armcal.robot_library import names
 from armcal.spec import load_spec
 
 # Epson G6-65-like: d1 387 mm, a1 375 mm, a2 275 mm, a 200 mm quill, the target 60 mm off the last axis; the tool points down.
-EPSON = """armcal: 1
-data: {calibration: calibration.csv, validation: validation.csv}
-simulate: {seed: 3}
-robot:
-  name: Epson G6-65-like SCARA
-  serial: G6-1
-  units: {length: mm, angle: deg}
-  convention: dh
-  joints:
-    - {name: j1, limits: [-152, 152], theta: 0, d: 387, a: 375, alpha: 0}
-    - {name: j2, limits: [-147, 147], theta: 0, d: 0, a: 275, alpha: 180}
-    - {name: j3, type: prismatic, limits: [0, 200], theta: 0, d: 0, a: 0, alpha: 0}
-    - {name: j4, limits: [-360, 360], theta: 0, d: 0, a: 0, alpha: 0}
-  targets:
-    reflector: {link: 4, x: 60, y: 0, z: 0}
-device:
-  type: tracker
-  targets: [reflector]
-  robot_base: {x: 2500, y: 0, z: 0, rz: 180, ry: 0, rx: 0}
-  noise: 0.02
-procedure: {type: poses, count: 120, seed: 1}
-validation: {type: poses, count: 60, seed: 2}
-"""
+EPSON = (SCARA.replace("name: SCARA RRPR", "name: Epson G6-65-like SCARA")
+         .replace("{name: j1, limits: [-132, 132], theta: 0, d: 400, a: 325, alpha: 0}", "{name: j1, limits: [-152, 152], theta: 0, d: 387, a: 375, alpha: 0}")
+         .replace("{name: j2, limits: [-141, 141], theta: 0, d: 0, a: 275, alpha: 180}", "{name: j2, limits: [-147, 147], theta: 0, d: 0, a: 275, alpha: 180}")
+         .replace("{name: j4, limits: [-360, 360], theta: 0, d: 50, a: 0, alpha: 0}", "{name: j4, limits: [-360, 360], theta: 0, d: 0, a: 0, alpha: 0}")
+         .replace("reflector: {link: 4, x: 40, y: 0, z: 30}", "reflector: {link: 4, x: 60, y: 0, z: 0}"))
 EPSON_ZOO = dict(convention="dh", types=["revolute", "revolute", "prismatic", "revolute"], targets={"reflector": 4},
                  nominal={**{f"j{i}.{f}": v for i, row in enumerate([(0, 387, 375, 0), (0, 0, 275, 180), (0, 0, 0, 0), (0, 0, 0, 0)], start=1)
                              for f, v in zip(zoo.DH_FIELDS, row)}, "reflector.x": 60.0, "reflector.y": 0.0, "reflector.z": 0.0})

@@ -171,12 +171,12 @@ def _place(space: Workspace, task, highest: float, name: str, describe) -> Place
         sizes, _ = _largest(space, lambda c, s: _oriented(task(c, s), rotation), highest, width)  # noqa: B023 (used at once)
         if sizes.max() > 0:
             k = int(np.argmax(sizes))  # the largest; on a tie the centre nearest the workspace's
-            how = (f"{describe(sizes[k])}, the largest (to {highest / 2**BISECTIONS:.3g}) whose copy grown {MARGIN:.0%} about its centre "
-                   f"the robot also reaches, found by bisection at {len(space.centres)} candidate centres around its workspace's centre "
-                   f"(reach {space.reach:.0f} mm), placed by armcal; orientation {label}; {space.judged(width)}")
+            how = (f"{describe(sizes[k])}, the largest (to {highest / 2**BISECTIONS:.3g}) whose copy grown {MARGIN * 100:.0f} % about its "
+                   f"centre the robot also reaches, found by bisection at {len(space.centres)} candidate centres around its workspace's centre, "
+                   f"placed by armcal; orientation {label}; {space.judged(width)}")
             return Placement(_oriented(task(space.centres[k], sizes[k]), rotation), space.centres[k], float(sizes[k]), how, width, None)
     space.why[name] = (f"with a horizontal reach of {space.reach:.0f} mm, no {name} down to {describe(highest / 2**BISECTIONS)} "
-                                    f"(grown {MARGIN:.0%}) is reached at any of {len(space.centres)} centres within {STEP * space.reach:.0f} mm of "
+                                    f"(grown {MARGIN * 100:.0f} %) is reached at any of {len(space.centres)} centres within {STEP * space.reach:.0f} mm of "
                                     f"the workspace's centre ({', '.join(f'{v:.0f}' for v in space.centre)}) mm, at any orientation the robot holds")
     return None
 

@@ -142,4 +142,5 @@ def test_a_robot_reaching_no_task_says_why_with_numbers(tmp_path):
 def test_any_robot_gets_its_tasks_and_the_commands_complete(tmp_path, robot):
     path, described = _spec(tmp_path, robot)
     _tasks_are_placed(path, described)
-    _commands_complete(path, tmp_path, 30)
+    single = load_spec(path).spec.device.type == "ballbar"  # one reading a pose: 30 cannot determine its 30-odd base parameters
+    _commands_complete(path, tmp_path, 120 if single else 30)

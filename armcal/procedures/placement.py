@@ -22,7 +22,8 @@ the orientation its tool has at its workspace's centre. A robot of fewer axes ho
 a SCARA's tool points down and its turn about the vertical is free. Its goals are then a point and the tool's
 axis (down, or as at the workspace's centre), the task is judged on position (the orientation the design model
 takes at its solution is the desired one), and ``how`` says so; a chain that cannot hold an axis either is
-placed by position alone. A robot reaching no task says why, with its reach and the sizes tried (``unplaced``).
+placed by position alone. A robot reaching no task says why, with its reach and the sizes tried, or the flatness of
+a workspace whose positions lie in a plane (a chain whose joints all move the point in one plane) (``unplaced``).
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ BISECTIONS = 8  # each size to 1/256 of its upper bound (the grown task's extent
 STARTS = (1, 3, 12)  # inverse kinematics of a frame starts from the sampled configurations nearest it: the nearest,
 # then (for the frames not reached) the next 3 at once, then the next 12
 ITERATIONS = 25  # Newton steps from a start: from a sampled configuration near the frame a reached frame needs far fewer
+FLAT = 1e-6  # a workspace whose positions spread less than this fraction of their largest spread across some direction is flat
 POSE, AXIS, POINT = 12, 6, 3  # goal widths (ik.error_function): a full pose; a point and the tool's axis; a point
 JUDGED = {POSE: "judged on position and orientation",
           AXIS: "judged on position: the robot's {dof} axes hold the tool's axis, not its turn about it (the design model's at its solution)",
@@ -95,6 +97,10 @@ class Workspace:
                                     ("any", nearest[:3, :3], POINT)]
         lattice = sorted(itertools.product((-1, 0, 1), repeat=3), key=lambda o: (np.abs(o).sum(), o))
         self.centres = self.centre + STEP * self.reach * np.array(lattice, dtype=float)
+        spread = np.linalg.svd(offsets - offsets.mean(axis=0), compute_uv=False) / np.sqrt(SAMPLES)  # mm, rms across each principal axis
+        self.flat = (f"the positions it reaches lie in a {'plane' if spread[1] > FLAT * spread[0] else 'line'} (rms spread of "
+                     f"{SAMPLES} random configurations across it {spread[2]:.2g} mm, along it {spread[0]:.0f} mm): no box stands in it"
+                     if spread[2] < FLAT * spread[0] else "")
         self._errors: dict[int, object] = {}
         self.why: dict[str, str] = {}  # why a task (its name) was not placed: the reach, the smallest size tried, where
 
@@ -167,6 +173,9 @@ def _largest(space: Workspace, task, highest: float, width: int) -> tuple[np.nda
 
 def _place(space: Workspace, task, highest: float, name: str, describe) -> Placement | None:
     """The first orientation family (Workspace.orientations) at which some size of ``task`` is reached, its largest."""
+    if space.flat:
+        space.why[name] = f"with a horizontal reach of {space.reach:.0f} mm, {space.flat}"
+        return None
     for label, rotation, width in space.orientations:
         sizes, _ = _largest(space, lambda c, s: _oriented(task(c, s), rotation), highest, width)  # noqa: B023 (used at once)
         if sizes.max() > 0:

@@ -49,6 +49,18 @@ class Study:
     files: list[Path]
 
 
+def _unobserved(spec, stands) -> dict | None:
+    """The indices the study's data or task cannot calibrate and why (montecarlo.json's ``unobserved``): all orientation
+    indices where the grid is judged on position (a robot of fewer axes, procedures/placement.py), else the absolute
+    ones where the instrument does not see the tool centre point's orientation (evaluate/grid.unobserved_orientation)."""
+    if stands.goal != 12:
+        return {"indices": [name for name in INDEX_NAMES if "orientation" in name],
+                "reason": (f"the grid is {stands.how.rsplit('; ', 1)[-1]}: neither control commands the turn about the tool's axis, "
+                           "so the orientation indices do not measure the calibration")}
+    why = unobserved_orientation(spec)
+    return {"indices": list(ORIENTATION), "reason": why} if why else None
+
+
 def montecarlo(
     spec_path: Path,
     runs: int,
@@ -114,7 +126,7 @@ def _study(loaded, runs: int, sweeps, seed: int | None, workers: int | None, sch
         "backend": f"dask ({scheduler})" if scheduler else f"{workers} local worker process{'es' if workers > 1 else ''}",
         "elapsed_s": round(elapsed, 3),
         "grid": grid,
-        "unobserved": {"indices": list(ORIENTATION), "reason": why} if (why := unobserved_orientation(spec)) else None,
+        "unobserved": _unobserved(spec, first.grid),
         "sweep": _describe(sweep, spec),
         "points": [
             {"value": sweep.shown[k] if sweep else None, "converged": int(converged[k].sum()), "indices": statistics[k]}

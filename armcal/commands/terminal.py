@@ -259,7 +259,8 @@ def study_summary(study) -> str:
             f" {t['source']} found {t['expected_slope']:g}"
         )
     if s.get("unobserved"):
-        lines.append(f"  absolute orientation indices (vertices 1/4/5/8), calibrated: {s['unobserved']['reason']}")
+        which = "absolute orientation indices (vertices 1/4/5/8)" if len(s["unobserved"]["indices"]) == 4 else "orientation indices (absolute and relative)"
+        lines.append(f"  {which}, calibrated: {s['unobserved']['reason']}")
     if s.get("accuracy_vs_poses"):
         lines += _accuracy_lines(s["accuracy_vs_poses"])
     lines.append(f"  wrote {', '.join(p.name for p in study.files)} in {study.out_dir}")

@@ -53,7 +53,9 @@ def test_a_scara_gets_the_grid_placed_in_its_workspace_and_reached(scara, tmp_pa
     np.testing.assert_allclose(np.ptp(vertices, axis=0), grid["scale"] * np.array([600.0, 300.0, 500.0]), rtol=1e-9)
     assert summary["points"][0]["converged"] == 4
     assert (_means(summary, "calibrated", RADIAL) < _means(summary, "design", RADIAL) / 3).all()
-    assert summary["unobserved"]["indices"] == list(ORIENTATION) and "1 measured point (reflector)" in summary["unobserved"]["reason"]
+    orientation = [row["index"] for row in summary["points"][0]["indices"] if "orientation" in row["index"]]
+    assert summary["unobserved"]["indices"] == orientation and len(orientation) == 7  # 4 absolute, 3 relative: not commanded
+    assert "judged on position" in summary["unobserved"]["reason"]
     again = montecarlo(scara, 4, out_dir=tmp_path / "b", workers=1).summary
     assert again["points"] == summary["points"]  # the same seed, the same robots
 

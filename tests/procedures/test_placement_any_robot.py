@@ -161,7 +161,8 @@ def test_any_robot_gets_its_tasks_and_the_commands_complete(tmp_path, robot):
     if described is not None and _flat(described):
         chain = compile_robot(spec.robot)
         assert "lie in a plane" in unplaced("grid_task", chain, chain.parameters.nominal, measured_point(spec))
-        with pytest.raises(UserError, match="the positions it reaches lie in a plane"):
+        flat_or_unplanned = "the positions it reaches lie in a plane" + ("|plans no pose the instrument can read" if spec.device.type == "ballbar" else "")
+        with pytest.raises(UserError, match=flat_or_unplanned):  # a ball-bar's shells are planned before the grid
             montecarlo(path, 2, out_dir=tmp_path / "mc", workers=1)
         return
     _tasks_are_placed(path, described)

@@ -25,7 +25,7 @@ from test_task_placement import SCARA
 from armcal.errors import UserError
 from armcal.evaluate.grid import measured_point
 from armcal.kinematics.compiler import compile_robot
-from armcal.montecarlo_command import montecarlo
+from armcal.commands.montecarlo import montecarlo
 from armcal.procedures.placement import MARGIN, POSE, Workspace, grid_vertices, placed, unplaced
 from armcal.robot_library import names
 from armcal.spec import load_spec

@@ -16,7 +16,7 @@ import typer
 from typer.core import TyperArgument, TyperCommand
 
 from armcal import __version__
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 
 app = typer.Typer(
     add_completion=False,
@@ -159,7 +159,7 @@ def simulate(
     force: Annotated[bool, typer.Option("--force", help="Replace existing data files and truth.json.")] = False,
 ) -> None:
     """Write the spec's calibration and validation data, measured on a simulated true robot."""
-    from armcal.progress import stage
+    from armcal.support.progress import stage
     from armcal.simulate import data_folder, write_simulation
     from armcal.spec import load_spec
     from armcal.commands.terminal import simulation_summary, where_run_reads
@@ -206,7 +206,7 @@ def report(
     history: HistoryOption = None,
 ) -> None:
     """Render the certificate again from results.json alone (and the plots beside it, and earlier results given)."""
-    from armcal.progress import stage
+    from armcal.support.progress import stage
     from armcal.report.render import rerender
 
     with stage("rendering the certificate" + ("" if no_pdf else " (PDF)")):
@@ -273,7 +273,7 @@ def batch(
 ) -> None:
     """Calibrate a fleet: run every spec (one certificate each) in parallel; exit 1 if any spec failed, 4 on an internal error."""
     from armcal.commands.batch import batch as run_batch, exit_code, summary_files, write_summary
-    from armcal.fileio import refuse_replacing
+    from armcal.support.fileio import refuse_replacing
     from armcal.commands.terminal import batch_summary
 
     summary = summary_files(out)
@@ -298,7 +298,7 @@ def import_ipa(
     """Convert a public UR10 laser-tracker series into a data file of the spec (its units)."""
     from armcal.dataio.ipa import read_ipa
     from armcal.dataio.writer import write_measurements
-    from armcal.fileio import refuse_replacing
+    from armcal.support.fileio import refuse_replacing
     from armcal.spec import load_spec
 
     refuse_replacing([out], [spec, source], force)
@@ -324,7 +324,7 @@ def new(
     list_robots: Annotated[bool, typer.Option("--list", help="List the library's robots and exit.")] = False,
 ) -> None:
     """Write a commented starting spec for a library robot and a measuring device (docs/robots.md)."""
-    from armcal.fileio import refuse_replacing, write_text_atomic
+    from armcal.support.fileio import refuse_replacing, write_text_atomic
     from armcal.devices.registry import INSTRUMENTS
     from armcal.commands.new import default_out, new_spec_text
     from armcal.robot_library import library_robot, names
@@ -365,7 +365,7 @@ def export(
 ) -> None:
     """Write a calibration in a format other tools read (docs/export.md)."""
     from armcal.export import export as export_calibration
-    from armcal.fileio import refuse_replacing, write_text_atomic
+    from armcal.support.fileio import refuse_replacing, write_text_atomic
 
     refuse_replacing([out], _calibration_inputs(source), force)
     exported = export_calibration(source, fmt)
@@ -395,7 +395,7 @@ def compensate(
     from armcal.export.compensation import compensate as compensated_commands
     from armcal.dataio.reader import data_text
     from armcal.report.numbers import counted
-    from armcal.fileio import refuse_replacing, write_text_atomic
+    from armcal.support.fileio import refuse_replacing, write_text_atomic
 
     refuse_replacing([out], [*_calibration_inputs(source), targets], force)
     loaded, results = calibration_source(source)
@@ -427,7 +427,7 @@ def import_urdf(
     convention: Annotated[str | None, typer.Option("--convention", help="dh, mdh or six_parameter (default: the simplest the chain's axes allow).", metavar="CONVENTION")] = None,
 ) -> None:
     """A spec of a URDF's chain from one link to another, device and procedure to edit (docs/export.md)."""
-    from armcal.fileio import refuse_replacing, write_text_atomic
+    from armcal.support.fileio import refuse_replacing, write_text_atomic
     from armcal.importers.spec_text import imported_spec
     from armcal.importers.urdf import read_urdf
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from pydantic import TypeAdapter, ValidationError
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.spec.loader import parse_yaml, validation_context
 from armcal.spec_parts.robot import Robot, RobotBase
 

@@ -72,7 +72,7 @@ from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.transforms import rigid_registration
 from armcal.commands.run import run
 from armcal.spec import load_spec
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 SERIES = ROOT.parent / "shared" / "data" / "ipa-robot-accuracy"
 PEERS = Path(__file__).resolve().parent / "peers"

@@ -94,7 +94,7 @@ def test_an_unreachable_scheduler_is_a_user_error(tmp_path):
 
 
 def test_two_jobs_never_share_an_output_folder(tmp_path):
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
 
     with pytest.raises(UserError, match="two specs would write to"):
         batch([FLEET[0], Path(str(FLEET[0]).replace("/examples/", "/examples/../examples/"))], pdf=False, workers=1)

@@ -112,8 +112,8 @@ def test_a_malformed_scheduler_address_is_refused_at_once(tmp_path, address):
 @pytest.mark.parametrize("address", ["tcp://", "nonsense", "tcp://host:99999", "a b:1"])
 def test_a_malformed_scheduler_address_is_refused_before_any_connection(monkeypatch, address):
     """'At once' without a clock: the address is refused before Dask is asked to connect (its timeout: 30 s)."""
-    from armcal import workers
-    from armcal.errors import UserError
+    from armcal.commands import workers
+    from armcal.support.errors import UserError
 
     monkeypatch.setattr(workers, "_on_dask", lambda *args: pytest.fail("a connection was tried"))
     with pytest.raises(UserError, match="is not a scheduler address"):

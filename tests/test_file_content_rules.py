@@ -24,12 +24,12 @@ from conftest import ROOT, armcal_cli, copy_example
 from armcal.dataio.measurements import Measurements
 from armcal.dataio.reader import read_measurements, read_pose_file
 from armcal.dataio.writer import measurements_csv
-from armcal.errors import SpecError, UserError
-from armcal.fileio import csv_text, spreadsheet_text
-from armcal.gitrepo import file_at_revision
+from armcal.support.errors import SpecError, UserError
+from armcal.support.fileio import csv_text, spreadsheet_text
+from armcal.support.gitrepo import file_at_revision
 from armcal.importers.urdf import read_urdf
 from armcal.spec import load_spec
-from armcal.units import parse_number
+from armcal.support.units import parse_number
 
 SECRET = "hunter2-Pa55"
 CONTROL = "\x1b[2J\x1b]8;;http://x\x07"  # clear screen, a hyperlink escape, BEL

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from ruamel.yaml import YAML
 
 from armcal.dataio.reader import read_measurements
-from armcal.errors import SpecError, UserError
+from armcal.support.errors import SpecError, UserError
 from armcal.spec import load_spec
 
 SPECS = shipped_specs()

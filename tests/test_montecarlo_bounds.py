@@ -8,10 +8,10 @@ import time
 import pytest
 from conftest import ROOT, armcal_cli
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.evaluate.sweeps import MAX_VALUES, parse_sweep, variant
 from armcal.spec import load_spec
-from armcal.workers import MAX_PROCESSES
+from armcal.commands.workers import MAX_PROCESSES
 
 SONIC = ROOT / "examples" / "puma560_sonic" / "spec.yaml"  # Stone's circle-point procedure: every sweep applies
 

@@ -131,8 +131,8 @@ def test_a_dangling_link_on_the_way_to_out_is_refused_with_force(tmp_path):
 
 
 def test_the_writer_keeps_modes_under_any_umask_and_never_follows_a_dangling_link(tmp_path):
-    from armcal.errors import UserError
-    from armcal.fileio import distinct_outputs, refuse_replacing, write_bytes_atomic
+    from armcal.support.errors import UserError
+    from armcal.support.fileio import distinct_outputs, refuse_replacing, write_bytes_atomic
 
     previous = os.umask(0)
     try:

@@ -13,7 +13,7 @@ import time
 import pytest
 from conftest import EXAMPLE_DATA, ROOT, armcal_cli, copy_example
 
-from armcal.output_set import MANIFEST
+from armcal.support.output_set import MANIFEST
 from armcal.commands.run import run
 
 EXAMPLE = ROOT / "examples" / "theodolite"
@@ -122,7 +122,7 @@ def test_simulate_and_import_replace_nothing_without_force(workspace):
 def test_two_concurrent_runs_into_one_folder(workspace):
     """While one run holds the folder (its lock taken here, as a run takes it), another stops at once with a clear
     message and writes nothing; once it is free, a run writes its set. No start-up race decides who comes first."""
-    from armcal.output_set import _locked
+    from armcal.support.output_set import _locked
 
     out = workspace / "out"
     with _locked(out):
@@ -239,8 +239,8 @@ def test_a_replaced_set_keeps_its_files_and_folders_modes(tmp_path):
     """--force replaces the content, not who may read it (issue 30 class 3), whatever the umask."""
     import stat
 
-    from armcal.errors import UserError
-    from armcal.output_set import output_set
+    from armcal.support.errors import UserError
+    from armcal.support.output_set import output_set
 
     spec = tmp_path / "spec.yaml"
     spec.write_text("x\n")
@@ -265,8 +265,8 @@ def test_a_replaced_set_keeps_its_files_and_folders_modes(tmp_path):
 
 
 def test_a_dangling_link_as_the_output_folder_is_refused_with_force(tmp_path):
-    from armcal.errors import UserError
-    from armcal.output_set import output_set
+    from armcal.support.errors import UserError
+    from armcal.support.output_set import output_set
 
     (tmp_path / "out").symlink_to(tmp_path / "nowhere")
     with pytest.raises(UserError, match="is a link to .*which does not exist"):

@@ -203,7 +203,7 @@ def test_a_theodolite_plan_keeps_its_scale_bar_and_reports_angles(tmp_path):
 @pytest.mark.parametrize("how", ["the same name", "./ and a suffix", "a link", "a hard link", "case"])
 def test_plan_outputs_that_are_one_file_are_refused_with_force_before_anything_is_written(kuka, tmp_path, monkeypatch, how):
     """POSES.csv and POSES.json beside it are two files, or the plan is refused (issue 30 class 3)."""
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
     from armcal.commands.plan import plan_command
 
     monkeypatch.chdir(tmp_path)

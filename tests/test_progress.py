@@ -5,7 +5,7 @@ import time
 
 import pytest
 
-from armcal.progress import LONG, stage
+from armcal.support.progress import LONG, stage
 
 
 HANG = 60.0  # s: only a stage that never says anything waits this long (a loaded machine is slow, not this slow)

@@ -121,7 +121,7 @@ def test_a_fit_that_cannot_converge_exits_3_with_its_reason(tmp_path):
 
 
 def test_run_without_data_is_a_user_error(tmp_path):
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
 
     with pytest.raises(UserError, match="no data section"):
         run(ROOT / "specs" / "puma560_dh.yaml", tmp_path)

@@ -3,7 +3,7 @@
 The script runs once and writes its numbers with --json. It runs on one processor: its Monte-Carlo
 studies then run in its own process instead of spawning a worker per processor (each of which imports
 armcal and CasADi anew, slower than the work it shares on two cores, and the test suite's other workers
-use those processors anyway). The numbers are the same whichever runs them (armcal/workers.py).
+use those processors anyway). The numbers are the same whichever runs them (armcal/commands/workers.py).
 
 Oracles and tolerances:
 

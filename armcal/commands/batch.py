@@ -16,10 +16,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from armcal.errors import UserError, shown_text
-from armcal.fileio import output_folder, write_text_atomic
+from armcal.support.errors import UserError, shown_text
+from armcal.support.fileio import output_folder, write_text_atomic
 from armcal.commands.run import default_out_dir, run
-from armcal.workers import check_workers, run_tasks
+from armcal.commands.workers import check_workers, run_tasks
 
 
 INTERNAL = 4  # exit code of a fleet in which a spec met an internal error

@@ -22,9 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from armcal import __version__
-from armcal.errors import UserError
-from armcal.fileio import csv_text, output_folder
-from armcal.output_set import output_set, run_id
+from armcal.support.errors import UserError
+from armcal.support.fileio import csv_text, output_folder
+from armcal.support.output_set import output_set, run_id
 from armcal.evaluate.grid import ORIENTATION, grid_indices, grid_placement, index_kind, unobserved_orientation
 from armcal.evaluate.montecarlo import ChunkResult, check_points, chunks, run_chunk
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve, accuracy_label
@@ -35,8 +35,8 @@ from armcal.commands.plan import DEFAULT_CANDIDATES
 from armcal.procedures.tasks import grid_task
 from armcal.report.study_plots import study_plots
 from armcal.spec import load_spec
-from armcal.units import from_internal
-from armcal.workers import check_workers, run_tasks
+from armcal.support.units import from_internal
+from armcal.commands.workers import check_workers, run_tasks
 
 INDEX_NAMES = list(grid_indices(grid_task(), grid_task()))
 STUDY_FILES = ("montecarlo.json", "montecarlo.csv")  # with the SVG plots: what a study's folder holds

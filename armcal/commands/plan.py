@@ -21,16 +21,16 @@ from armcal import __version__
 from armcal.dataio.columns import joint_columns
 from armcal.dataio.reader import read_pose_file
 from armcal.devices.registry import INSTRUMENTS, instruments_where
-from armcal.errors import UserError, either, with_article
+from armcal.support.errors import UserError, either, with_article
 from armcal.evaluate.montecarlo import robot_seeds
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_label
 from armcal.evaluate.working_region import REGIONS, working_region
-from armcal.fileio import csv_text, refuse_replacing
+from armcal.support.fileio import csv_text, refuse_replacing
 from armcal.procedures import pose_selection as ps
 from armcal.procedures.poses import keyed_plan
 from armcal.report.render import write_files
 from armcal.spec import load_spec
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 MAX_POSES = 100_000
 MAX_CANDIDATES = 200_000

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model, readings_mode
-from armcal.errors import Issue, SpecError, UserError, shown_value
+from armcal.support.errors import Issue, SpecError, UserError, shown_value
 from armcal.diagnose.calibration import identify_and_diagnose
 from armcal.evaluate.evidence import evidence
 from armcal.evaluate.grid import evaluation_tasks
@@ -16,8 +16,8 @@ from armcal.evaluate.residuals import residuals_csv
 from armcal.evaluate.run_figures import run_figures
 from armcal.kinematics.compiler import compile_robot
 from armcal.report.plots import draw_plots
-from armcal.output_set import output_set, run_id, stamp_svg
-from armcal.progress import stage
+from armcal.support.output_set import output_set, run_id, stamp_svg
+from armcal.support.progress import stage
 from armcal.report.render import certificate_files, check_templates, template_folders
 from armcal.results.build import build_results
 from armcal.results.schema import Results

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from armcal.errors import UserError, shown_text
+from armcal.support.errors import UserError, shown_text
 from armcal.evaluate.grid import RADIAL
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.parallel_axes import parallel_axes
@@ -19,7 +19,7 @@ from armcal.results.plausibility import WHY, status_words
 from armcal.results.schema import TASK_TITLES
 from armcal.spec import LoadedSpec
 from armcal.kinematics.params import joint_kind
-from armcal.units import from_internal, to_internal
+from armcal.support.units import from_internal, to_internal
 
 
 NOISE_VERDICTS = {

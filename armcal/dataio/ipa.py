@@ -15,8 +15,8 @@ import numpy as np
 
 from armcal.dataio.measurements import Measurements
 from armcal.dataio.reader import data_text
-from armcal.errors import Issue, SpecError
-from armcal.units import parse_number
+from armcal.support.errors import Issue, SpecError
+from armcal.support.units import parse_number
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
 POSITION = ("measurement_x", "measurement_y", "measurement_z")

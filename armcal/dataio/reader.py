@@ -14,11 +14,11 @@ import numpy as np
 from armcal.dataio.columns import Layout, joint_columns, layout
 from armcal.dataio.measurements import Measurements
 from armcal.devices import device_model
-from armcal.errors import Issue, SpecError
-from armcal.fileio import read_input, spreadsheet_text
+from armcal.support.errors import Issue, SpecError
+from armcal.support.fileio import read_input, spreadsheet_text
 from armcal.spec.document import Spec
 from armcal.kinematics.params import joint_kind
-from armcal.units import factor, is_number, parse_number
+from armcal.support.units import factor, is_number, parse_number
 
 MAX_ISSUES = 20
 MAX_SAMPLES = 200_000  # rows of one data file (100,000 ball-bar samples take about 0.7 GiB at the fit)

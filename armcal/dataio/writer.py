@@ -9,9 +9,9 @@ import numpy as np
 from armcal.dataio.columns import layout
 from armcal.dataio.measurements import Measurements
 from armcal.devices import device_model
-from armcal.fileio import csv_text, write_text_atomic
+from armcal.support.fileio import csv_text, write_text_atomic
 from armcal.spec.document import Spec
-from armcal.units import factor
+from armcal.support.units import factor
 
 
 def _format(value: float, kind: str, spec: Spec) -> str:

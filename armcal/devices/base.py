@@ -27,7 +27,7 @@ import casadi as ca
 import numpy as np
 
 from armcal.effects.measurement import EffectSet, extras_size
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
 

@@ -24,7 +24,7 @@ from pydantic import Field, ValidationInfo, WrapValidator
 
 from armcal.devices.base import Channel, DeviceModel, Key, transform_point
 from armcal.effects.library import EffectSpec
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, point_entries, pose_entries
 from armcal.kinematics.transforms import xyz_zyx

@@ -24,7 +24,7 @@ from armcal.devices.base import DeviceModel
 from armcal.diagnose.loop import Diagnosis, run_diagnosis
 from armcal.diagnose.residual_model import Figures, Judgement, applied, judge
 from armcal.effects.library import from_spec
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.effects.measurement import EffectSet
 from armcal.identify.fit import design_identifiability, fit
 from armcal.identify.methods import Identified, identify_parameters

@@ -16,7 +16,7 @@ import math
 import numpy as np
 from scipy.special import stdtrit  # Student's t quantile (scipy.stats.t.ppf's own); scipy.stats imports slowly
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.evaluate.residuals import distance_errors, readings_by_sample, residual_unit
 from armcal.identify.uncertainty import residual_stats
 

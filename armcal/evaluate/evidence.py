@@ -19,7 +19,7 @@ import numpy as np
 from armcal.effects.measurement import DEFAULT_LINK_MASS, gravity_torque_function
 from armcal.evaluate.residuals import ARCSEC, residual_unit
 from armcal.kinematics.params import joint_kind
-from armcal.units import factor
+from armcal.support.units import factor
 
 BINS = 18
 

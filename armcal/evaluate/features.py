@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from armcal.evaluate.residuals import before_after
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 
 def evaluation(loaded, problem, identified, validation_problem) -> dict:

@@ -132,7 +132,7 @@ def iso9283_evaluation(kinematics, p_design, p_calibrated, truth, units, cube, f
     from armcal.kinematics.transforms import compose, rot_y, rot_z
     from armcal.procedures.placement import Placement, placed, unplaced
     from armcal.procedures.tasks import iso9283_cube
-    from armcal.units import from_internal
+    from armcal.support.units import from_internal
 
     if cube is not None:
         centre = np.array([cube.x, cube.y, cube.z])
@@ -200,7 +200,7 @@ def grid_control(kinematics, p_design: np.ndarray, frame: str | None = None, tea
 def grid_placement(stands, units) -> dict:
     """Where the grid stood, in the spec's length unit: ``placement`` (how), ``scaled`` (False only at Table 7-1),
     ``scale`` (1: Table 7-1's 60 x 30 x 50 cm), ``centre`` of its box in the robot base frame, ``unit``."""
-    from armcal.units import from_internal
+    from armcal.support.units import from_internal
 
     length = lambda v: round(from_internal(float(v), "length", units.length), 6) + 0.0  # noqa: E731 (no -0.0, no 1e-14)
     return {"placement": stands.how, "scaled": stands.how != TABLE_7_1, "scale": stands.size,
@@ -214,7 +214,7 @@ def grid_evaluation(
 
     Each index's improvement factor is |design error| / |calibrated error| (Tables 6-10, 6-11).
     """
-    from armcal.units import from_internal
+    from armcal.support.units import from_internal
 
     solved = grid_control(kinematics, p_design, frame, teach)
     if solved is None:

@@ -26,7 +26,7 @@ import numpy as np
 
 from armcal.devices import device_model
 from armcal.diagnose.calibration import calibration_problem
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.evaluate.grid import grid_control, grid_indices, grid_unreachable, measured_point
 from armcal.identify.feature_method import feature_parameters
 from armcal.identify.fit import FitResult, fit

@@ -35,14 +35,14 @@ import numpy as np
 from armcal.devices import device_model
 from armcal.effects.library import from_spec
 from armcal.effects.measurement import EffectSet
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.evaluate.montecarlo import identify_simulated, robot_seeds
 from armcal.identify.problem import build_problem
 from armcal.procedures import pose_selection as ps
 from armcal.procedures.regions import Region, region_candidates
 from armcal.simulate.campaign import CampaignSimulator
 from armcal.spec.document import Spec
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 HELD_OUT = 300  # candidate draws for the held-out poses
 REGION_POOL = 1000  # random poses in the working region: the weight W of the I-criterion and the random designs there

@@ -28,7 +28,7 @@ from armcal.kinematics.compiler import KinematicModel, compile_robot
 from armcal.evaluate.multiple_testing import holm
 from armcal.spec import load_spec
 from armcal.kinematics.params import joint_kind
-from armcal.units import factor
+from armcal.support.units import factor
 
 POSES = 50
 TOOL = "tool"  # the tool's origin, beside the targets' names

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from armcal.fileio import csv_text
+from armcal.support.fileio import csv_text
 from armcal.identify.problem import Problem
 from armcal.identify.uncertainty import residual_stats
-from armcal.units import ANGLE_UNITS, from_internal
+from armcal.support.units import ANGLE_UNITS, from_internal
 
 ARCSEC = ANGLE_UNITS["arcsec"]
 

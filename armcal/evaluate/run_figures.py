@@ -19,7 +19,7 @@ from armcal.identify.uncertainty import residual_stats
 from armcal.kinematics.parallel_axes import parallel_axes
 from armcal.spec import LoadedSpec
 from armcal.spec.effect_vocabulary import EFFECT_TYPES
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 
 CHOSEN_ON = {

@@ -15,7 +15,7 @@ import numpy as np
 
 from armcal.evaluate.grid import RADIAL, index_kind
 from armcal.evaluate.sweeps import VARIABLES, Sweep
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 
 

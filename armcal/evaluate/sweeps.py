@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import BaseModel, ValidationError
 
-from armcal import units
-from armcal.errors import UserError
+from armcal.support import units
+from armcal.support.errors import UserError
 from armcal.kinematics.compiler import compile_robot
 from armcal.spec_parts.base import Parameter
 from armcal.spec.document import Spec

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.evaluate.grid import grid_control, grid_unreachable, measured_point
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, rot_y, rot_z

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.export.dh_table import dh_table
 from armcal.export.parameters import parameters_json
 from armcal.export.ur_calibration import ur_calibration

@@ -23,8 +23,8 @@ from armcal.dataio.columns import Layout, joint_columns
 from armcal.dataio.reader import MAX_ISSUES, read_table
 from armcal.effects.library import from_spec
 from armcal.effects.measurement import EffectSet, extras_size
-from armcal.errors import Issue, SpecError, shown_text
-from armcal.fileio import csv_text
+from armcal.support.errors import Issue, SpecError, shown_text
+from armcal.support.fileio import csv_text
 from armcal.identify.compiled import compiled
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel, compile_robot
@@ -32,7 +32,7 @@ from armcal.kinematics.mapped import Mapped
 from armcal.kinematics.transforms import pose_from_matrix, xyz_zyx_stacked
 from armcal.spec import LoadedSpec
 from armcal.kinematics.params import joint_kind
-from armcal.units import factor, to_internal
+from armcal.support.units import factor, to_internal
 
 COMPENSATED = ("encoder_scale", "gear_harmonic", "joint_compliance", "joint_coupling")  # functions of the joints alone
 POSE = ("x", "y", "z", "rx", "ry", "rz")

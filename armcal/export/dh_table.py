@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.dh_rows import dh_chain
 from armcal.kinematics.params import parameter_set
 from armcal.kinematics.transforms import POSE_FIELDS, pose_from_matrix
 from armcal.spec import LoadedSpec
-from armcal.units import from_internal, snapped
+from armcal.support.units import from_internal, snapped
 
 COLUMNS = (("theta", "angle"), ("d", "length"), ("a", "length"), ("alpha", "angle"), ("beta", "angle"))
 POSE = (("x", "length"), ("y", "length"), ("z", "length"), ("rz", "angle"), ("ry", "angle"), ("rx", "angle"))

@@ -7,7 +7,7 @@ import json
 
 from armcal.kinematics.params import parameter_set
 from armcal.spec import LoadedSpec
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 
 def parameters_json(loaded: LoadedSpec, results: dict | None) -> str:

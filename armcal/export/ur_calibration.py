@@ -18,7 +18,7 @@ import hashlib
 
 import numpy as np
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.kinematics.params import parameter_set
 from armcal.kinematics.transforms import compose, pose_from_matrix, rot_x, rot_y, rot_z, trans, xyz_zyx
 from armcal.spec import LoadedSpec

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from armcal.dataio.measurements import Measurements
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.identify.stone_features import FeatureIdentification, identify
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.params import ParameterSet

@@ -27,7 +27,7 @@ import numpy as np
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel
 from armcal.effects.measurement import EffectSet
-from armcal.errors import UserError, shown_value
+from armcal.support.errors import UserError, shown_value
 from armcal.identify.problem import Problem, Residual, build_problem
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import POSE_FIELDS

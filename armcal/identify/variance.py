@@ -36,7 +36,7 @@ import numpy as np
 from scipy.special import chdtr, chdtrc, chdtri
 
 from armcal.devices.base import DeviceModel
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.identify.fit import FitResult, fit
 from armcal.identify.identifiability import Identifiability
 from armcal.identify.problem import Problem, reweighted

@@ -18,7 +18,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
-from armcal.errors import shown_text
+from armcal.support.errors import shown_text
 from armcal.kinematics.transforms import trans
 
 if TYPE_CHECKING:

@@ -19,14 +19,14 @@ from pathlib import Path
 
 import numpy as np
 
-from armcal.errors import SpecError, UserError
-from armcal.fileio import INPUT_LIMITS
+from armcal.support.errors import SpecError, UserError
+from armcal.support.fileio import INPUT_LIMITS
 from armcal.importers.urdf import UrdfChain
 from armcal.kinematics.dh_rows import DHChain, dh_chain
 from armcal.kinematics.transforms import inverse, pose_from_matrix
 from armcal.spec.loader import spec_from_bytes
 from armcal.spec.placeholders import marker_lines
-from armcal.units import snapped
+from armcal.support.units import snapped
 
 CONVENTIONS = ("dh", "mdh", "six_parameter")  # simplest first
 LINK = ("x", "y", "z", "alpha", "beta", "gamma")  # Trans(x, y, z) Rot(z, alpha) Rot(y, beta) Rot(x, gamma)

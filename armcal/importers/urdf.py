@@ -29,11 +29,11 @@ from xml.parsers import expat
 
 import numpy as np
 
-from armcal.errors import UserError, shown_text
-from armcal.fileio import INPUT_LIMITS, read_input
+from armcal.support.errors import UserError, shown_text
+from armcal.support.fileio import INPUT_LIMITS, read_input
 from armcal.importers.mimic import MOVING, Slide, mimics_on
 from armcal.kinematics.transforms import compose, inverse, rot_x, rot_y, rot_z, trans
-from armcal.units import INTERNAL_UNIT, LARGEST, SMALLEST, factor, parse_number, to_internal
+from armcal.support.units import INTERNAL_UNIT, LARGEST, SMALLEST, factor, parse_number, to_internal
 
 CONTINUOUS_LIMITS = (-2 * np.pi, 2 * np.pi)  # rad: a continuous joint's limits in the spec, one turn either way
 MAX_JOINTS = INPUT_LIMITS["spec"] // 128  # a spec file holds no more moving joints: each takes over 128 bytes of it

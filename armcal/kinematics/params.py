@@ -12,7 +12,7 @@ import casadi as ca
 import numpy as np
 
 from armcal.kinematics.parallel_axes import parallel_axes
-from armcal.units import INTERNAL_UNIT
+from armcal.support.units import INTERNAL_UNIT
 
 POSE_FIELDS = ("x", "y", "z", "rx", "ry", "rz")
 LINK_FIELDS = ("x", "y", "z", "alpha", "beta", "gamma")

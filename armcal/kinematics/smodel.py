@@ -13,7 +13,7 @@ import numpy as np
 
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, inverse, pose_from_matrix, rot_z, trans
-from armcal.units import snapped
+from armcal.support.units import snapped
 
 PARALLEL_TOL = 1e-10  # |sin| below which two joint axes count as parallel
 

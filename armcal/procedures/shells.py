@@ -21,7 +21,7 @@ from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import on_sphere
 from armcal.procedures.plan import Plan
 from armcal.spec.procedure import Shells
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 REACH_SAMPLES = 4096  # random configurations that measure how far the sphere gets from the base
 

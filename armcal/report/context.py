@@ -10,7 +10,7 @@ from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.report.numbers import AT_THE_NOISE, counted, decimals, fixed, given, improvement, measured, p_value, powers_of_ten, ratio, significant, task_noise
 from armcal.results.plausibility import WHY, status_words
 from armcal.results.schema import TASK_TITLES
-from armcal.units import ANGLE_UNITS, LENGTH_UNITS, factor
+from armcal.support.units import ANGLE_UNITS, LENGTH_UNITS, factor
 
 PLOT_TITLES = {
     "residual_histogram.svg": "Residuals after calibration, with the Gaussian of the noise model",

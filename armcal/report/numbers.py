@@ -15,7 +15,7 @@ import statistics
 
 import numpy as np
 
-from armcal.units import ANGLE_UNITS, LENGTH_UNITS, factor
+from armcal.support.units import ANGLE_UNITS, LENGTH_UNITS, factor
 
 SIGNIFICANT = 2  # significant digits of an uncertainty (GUM 7.2.6)
 MAX_DECIMALS = 12  # a decimal finer than any instrument's resolution in mm, deg or a ratio

@@ -14,7 +14,7 @@ from urllib.parse import unquote, urlparse
 from weasyprint import HTML
 from weasyprint.urls import URLFetcher, URLFetcherResponse
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.report.render import FOLDER_FILE_LIMIT, read_inside
 
 

@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from armcal.report.numbers import significant  # noqa: E402
-from armcal.units import LENGTH_UNITS, factor  # noqa: E402
+from armcal.support.units import LENGTH_UNITS, factor  # noqa: E402
 
 
 STYLE = {"font.size": 8, "svg.fonttype": "none", "figure.dpi": 100}  # while drawing only; the caller's rcParams stay as they were

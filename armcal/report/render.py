@@ -17,9 +17,9 @@ from jinja2.compiler import CodeGenerator
 from jinja2.loaders import split_template_path
 from jinja2.sandbox import SandboxedEnvironment, SecurityError, safe_range
 
-from armcal.errors import UserError
-from armcal.fileio import MiB, decoded, read_regular, write_bytes_atomic
-from armcal.output_set import check_set, replace_in_set
+from armcal.support.errors import UserError
+from armcal.support.fileio import MiB, decoded, read_regular, write_bytes_atomic
+from armcal.support.output_set import check_set, replace_in_set
 from armcal.report.context import certificate_context
 from armcal.results.history import history_entries
 from armcal.results.reader import read_earlier, read_results, results_file

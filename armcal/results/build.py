@@ -15,7 +15,7 @@ from armcal.results.provenance import git_info, utc_now
 from armcal.spec import LoadedSpec
 from armcal.spec.placeholders import placeholders
 from armcal.spec.sections import STANDS_FOR
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 
 def parameter_rows(loaded: LoadedSpec, entries, values: np.ndarray, std: np.ndarray, identified: set[str]) -> list[dict]:

@@ -25,7 +25,7 @@ from armcal.effects.library import to_spec_dict
 from armcal.kinematics.params import parameter_set
 from armcal.spec.document import Spec
 from armcal.spec.locations import yaml_path
-from armcal.units import from_internal, snapped
+from armcal.support.units import from_internal, snapped
 
 SIGNIFICANT = 15  # a 2 m transform to 2e-12 mm: the readings reproduced far below any noise
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from armcal.spec import LoadedSpec
 from armcal.kinematics.params import joint_kind
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 
 def _procedure(procedure) -> str:

@@ -19,9 +19,9 @@ from dataclasses import dataclass, replace
 
 from scipy.special import ndtr  # the normal distribution function (scipy.stats.norm.sf's own); scipy.stats imports slowly
 
-from armcal.errors import UserError, shown_text
+from armcal.support.errors import UserError, shown_text
 from armcal.evaluate.multiple_testing import ALPHA, holm
-from armcal.units import ANGLE_UNITS, LENGTH_UNITS
+from armcal.support.units import ANGLE_UNITS, LENGTH_UNITS
 
 
 def check_same_robot(serial: str, other_serial: str, shown: str, other: str) -> None:

@@ -2,7 +2,7 @@
 
 A calibration is a run's results.json (or its folder), a calibrated spec (a run's calibrated.yaml,
 whose identified values carry their ``std``), or such a spec at a git revision, ``PATH@REV``
-(armcal/gitrepo.py reads the repository as files). Each parameter both identified has its change d = new - old put
+(armcal/support/gitrepo.py reads the repository as files). Each parameter both identified has its change d = new - old put
 in units of its combined standard uncertainty and flagged by Holm's test; one that either side held or lacks is "not
 comparable" (results/changes.py). Two runs are also compared on what does not depend on which parameters carry a
 redundancy: their predicted tool and target positions at common poses (evaluate/position_changes.py).
@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from armcal.errors import UserError, shown_text
+from armcal.support.errors import UserError, shown_text
 from armcal.evaluate.position_changes import POSES, common_box, position_changes, run_model
-from armcal.fileio import INPUT_LIMITS
-from armcal.gitrepo import file_at_revision
+from armcal.support.fileio import INPUT_LIMITS
+from armcal.support.gitrepo import file_at_revision
 from armcal.kinematics.params import parameter_set
 from armcal.results.reader import read_results, results_file
 from armcal.evaluate.multiple_testing import ALPHA
@@ -27,7 +27,7 @@ from armcal.results.changes import NO_BASIS, Basis, basis, changes, check_same_r
 from armcal.spec.locations import yaml_path
 from armcal.spec import LoadedSpec, load_spec
 from armcal.spec.loader import spec_from_bytes
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 _CALIBRATED_BY = re.compile(r"Calibrated by armcal \S+ on (?P<created>\S+) .*?, run (?P<run>\w+)")
 

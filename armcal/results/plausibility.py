@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from armcal.spec.document import Spec
-from armcal.units import from_internal
+from armcal.support.units import from_internal
 
 JUDGED = ("length", "angle", "scale")
 DETERMINED = 5.0  # deviation over std beyond which the data, not a flat direction, put the value there

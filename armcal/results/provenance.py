@@ -1,6 +1,6 @@
 """Where a spec came from: the git commit of its work tree and whether the spec differs from it.
 
-The repository is read as files (armcal/gitrepo.py): git itself is never run.
+The repository is read as files (armcal/support/gitrepo.py): git itself is never run.
 """
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from __future__ import annotations
 from datetime import datetime, timezone
 from pathlib import Path
 
-from armcal.gitrepo import UNREADABLE, ObjectStore, blob_at, blob_id, common_dir, read_bytes, repository, resolve_head, tree_path
+from armcal.support.gitrepo import UNREADABLE, ObjectStore, blob_at, blob_id, common_dir, read_bytes, repository, resolve_head, tree_path
 
 
 def git_info(path: Path) -> dict | None:

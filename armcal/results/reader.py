@@ -7,8 +7,8 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
-from armcal.errors import UserError, shown_key
-from armcal.fileio import MiB, decoded, read_regular
+from armcal.support.errors import UserError, shown_key
+from armcal.support.fileio import MiB, decoded, read_regular
 from armcal.results.changes import check_same_robot
 from armcal.results.schema import Results
 

@@ -435,7 +435,7 @@ class HistoryEntry(_Frozen):
 
 class Results(_Frozen):
     armcal_version: str
-    run_id: str | None = None  # the run's id, in every artifact of its output set (armcal/output_set.py)
+    run_id: str | None = None  # the run's id, in every artifact of its output set (armcal/support/output_set.py)
     created: str
     spec: SpecInfo
     robot: RobotInfo

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from armcal.dataio.writer import write_measurements
-from armcal.errors import UserError
-from armcal.fileio import read_input, refuse_replacing, write_text_atomic
+from armcal.support.errors import UserError
+from armcal.support.fileio import read_input, refuse_replacing, write_text_atomic
 from armcal.simulate.campaign import Campaign, simulate_campaign
 from armcal.simulate.truth import record_problem
 from armcal.spec import LoadedSpec

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from armcal.dataio.measurements import Measurements
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.spec_parts.instrument import AUTO
 from armcal.devices import device_model
 from armcal.devices.base import DeviceModel, held_in_contact

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from armcal.errors import Issue
+from armcal.support.errors import Issue
 from armcal.kinematics.axis_targets import targets_on_axes
 from armcal.spec.loader import LoadedSpec, located_issues
 

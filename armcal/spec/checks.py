@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 from armcal.devices.registry import accepting, instruments_where
-from armcal.errors import either, shown_value, with_article
+from armcal.support.errors import either, shown_value, with_article
 from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
 from armcal.spec_parts.robot import SixParameterRobot

@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import ConfigDict, Field, ValidationInfo, model_validator
 
-from armcal.errors import shown_key, shown_value
+from armcal.support.errors import shown_key, shown_value
 from armcal.spec_parts.base import AngleParam, LengthParam, Number, Parameter, ScaleParam, SpecModel, parameter_schema
 from armcal.spec_parts.robot import LinkMass, Offset
 

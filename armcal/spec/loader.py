@@ -19,9 +19,9 @@ from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
-from armcal import units
-from armcal.errors import Issue, SpecError, shown_key, shown_value
-from armcal.fileio import read_input
+from armcal.support import units
+from armcal.support.errors import Issue, SpecError, shown_key, shown_value
+from armcal.support.fileio import read_input
 from armcal.spec.checks import check_spec
 from armcal.spec.document import Spec
 from armcal.kinematics.params import joint_kind

@@ -14,7 +14,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from armcal.errors import Issue
+from armcal.support.errors import Issue
 from armcal.spec.loader import LoadedSpec, located_issues, parse_yaml
 from armcal.spec.sections import STANDS_FOR
 

@@ -10,7 +10,7 @@ from pydantic import AfterValidator, Field, model_validator
 
 from armcal.spec_parts.base import Angle, Length, Number, SpecModel
 from armcal.spec.effect_vocabulary import DEG, EFFECT_TYPES, Effect
-from armcal.units import LENGTH_UNITS
+from armcal.support.units import LENGTH_UNITS
 
 STANDS_FOR = {  # the fields `armcal new` and `armcal import-urdf` write stand-ins for (spec/placeholders.py), and what they stand for
     "robot.serial": "the robot's serial number",

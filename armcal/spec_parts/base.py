@@ -12,8 +12,8 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo, WithJsonSchema, model_validator
 
-from armcal import units
-from armcal.errors import shown_value
+from armcal.support import units
+from armcal.support.errors import shown_value
 
 
 class SpecModel(BaseModel):

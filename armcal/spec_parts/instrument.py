@@ -18,7 +18,7 @@ from typing import Annotated, Any, ClassVar, Literal, Union
 
 from pydantic import Field, ValidationInfo, WithJsonSchema, WrapValidator, field_validator
 
-from armcal.errors import shown_value
+from armcal.support.errors import shown_value
 from armcal.spec_parts.base import LengthParam, SpecModel, convert, quantity_schema
 
 AUTO = "auto"  # a noise sigma estimated from the data

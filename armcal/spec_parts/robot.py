@@ -14,7 +14,7 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import Field, ValidationInfo, WithJsonSchema, field_validator
 
-from armcal import units
+from armcal.support import units
 from armcal.kinematics.params import joint_kind
 from armcal.spec_parts.base import (
     Angle,

@@ -7,7 +7,7 @@ import pytest
 from conftest import ROOT, SPECS
 
 from armcal.dataio.reader import read_joint_file, read_measurements
-from armcal.errors import SpecError
+from armcal.support.errors import SpecError
 from armcal.spec import load_spec
 
 HEADER = "sample,target,q1,q2,q3,q4,q5,q6,x,y,z\n"

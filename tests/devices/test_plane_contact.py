@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
-from armcal.errors import SpecError
+from armcal.support.errors import SpecError
 from armcal.identify.fit import design_identifiability
 from armcal.identify.problem import build_problem
 from armcal.kinematics.compiler import compile_robot

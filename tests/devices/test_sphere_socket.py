@@ -15,7 +15,7 @@ from conftest import armcal_cli
 from rigid_fit import kabsch
 
 from armcal.devices import device_model
-from armcal.errors import SpecError
+from armcal.support.errors import SpecError
 from armcal.kinematics.compiler import compile_robot
 from armcal.simulate.truth import TrueRobot
 from armcal.spec import load_spec

@@ -21,7 +21,7 @@ from armcal.diagnose.loop import run_diagnosis
 from armcal.diagnose.calibration import calibration_problem
 from armcal.effects.library import EffectSpec, LumpedMass, from_spec, moment_terms, with_products
 from armcal.effects.measurement import EffectSet, extras_size, moment_regressors
-from armcal.errors import SpecError
+from armcal.support.errors import SpecError
 from armcal.identify.fit import design_identifiability
 from armcal.kinematics.compiler import compile_robot
 from armcal.spec import load_spec

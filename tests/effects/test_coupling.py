@@ -85,7 +85,7 @@ def test_the_spec_declares_it_with_from_and_calibrated_yaml_writes_it_back(tmp_p
     ],
 )
 def test_a_wrong_coupling_is_a_located_spec_error(tmp_path, entry, message):
-    from armcal.errors import SpecError
+    from armcal.support.errors import SpecError
 
     with pytest.raises(SpecError) as error:
         _puma(tmp_path, f"effects:\n  - {entry}\n")

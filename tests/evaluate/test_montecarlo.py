@@ -130,7 +130,7 @@ def test_study_mistakes_are_user_errors(tmp_path, arguments, message):
 
 
 def test_circle_point_sweeps_need_a_circle_point_procedure(tmp_path):
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
 
     with pytest.raises(UserError, match="circle-point"):
         montecarlo(ROOT / "examples" / "goswami_ballbar" / "spec.yaml", 4, ["points_per_joint=20,40"], out_dir=tmp_path)
@@ -146,7 +146,7 @@ def test_a_least_squares_study_with_the_specs_declared_effects(tmp_path):
 
 
 def test_an_output_path_that_is_a_file_is_a_user_error(tmp_path):
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
 
     (tmp_path / "taken").write_text("")
     with pytest.raises(UserError, match="is a file"):
@@ -157,7 +157,7 @@ def test_an_earlier_study_is_replaced_only_with_force_and_then_whole(tmp_path):
     """The output folder follows `armcal run`'s rule (issue 30 class 3): without --force an earlier study stays as it
     was; with it the new study replaces the folder's set whole (no trend plot of the earlier sweep survives); a
     folder holding anything else is never taken over."""
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
 
     out = tmp_path / "study"
     montecarlo(SONIC, 2, ["noise_factor=1,2"], out_dir=out, workers=1)
@@ -178,7 +178,7 @@ def test_an_earlier_study_is_replaced_only_with_force_and_then_whole(tmp_path):
 
 
 def test_a_study_folder_written_before_manifests_is_replaced_with_force(tmp_path):
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
 
     out = tmp_path / "legacy"
     out.mkdir()

@@ -13,7 +13,7 @@ import pytest
 from conftest import ROOT
 from test_task_placement import SCARA
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.evaluate.grid import ORIENTATION, RADIAL, unobserved_orientation
 from armcal.evaluate.montecarlo import RobotStudy
 from armcal.commands.montecarlo import montecarlo

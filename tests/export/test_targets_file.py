@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from conftest import SPECS, armcal_cli
 
-from armcal.errors import SpecError
+from armcal.support.errors import SpecError
 from armcal.export.compensation import compensate
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.transforms import pose_from_matrix

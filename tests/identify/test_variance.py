@@ -13,7 +13,7 @@ from identify_helpers import measure, setup, truth
 from armcal.dataio.measurements import Measurements
 from armcal.devices import device_model
 from armcal.diagnose.calibration import identify_and_diagnose
-from armcal.errors import SpecError, UserError
+from armcal.support.errors import SpecError, UserError
 from armcal.identify.problem import build_problem, reweighted
 from armcal.spec import load_spec
 

@@ -86,7 +86,7 @@ BAD_URDFS = [  # (URDF text, --base, --tip, expected message after "FILE:")
 @pytest.mark.parametrize("text, base, tip, message", BAD_URDFS, ids=["not-xml", "doctype", "not-urdf", "xacro", "no-link", "upwards",
                                                                     "side-branch", "two-trees", "mimic", "floating", "planar", "expression", "no-limit", "no-joint"])
 def test_a_bad_urdf_is_one_located_message(tmp_path, text, base, tip, message):
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
     from armcal.importers.urdf import read_urdf
 
     path = tmp_path / "bad.urdf"
@@ -142,7 +142,7 @@ OUT_OF_RANGE = [  # (URDF text, --tip, expected message after "FILE:"): numbers 
 def test_a_number_out_of_range_or_a_graph_that_is_no_tree_is_refused(tmp_path, text, tip, message):
     """Issue 30 class 7: every number import-urdf reads is finite and within 1e9 mm or rad (units.to_internal), and
     the joints are one tree from a single root: anything else is one located message, never a spec."""
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
     from armcal.importers.urdf import read_urdf
 
     path = tmp_path / "bad.urdf"

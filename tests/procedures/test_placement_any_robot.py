@@ -22,7 +22,7 @@ import zoo
 from conftest import armcal_cli
 from test_task_placement import SCARA
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.evaluate.grid import measured_point
 from armcal.kinematics.compiler import compile_robot
 from armcal.commands.montecarlo import montecarlo

@@ -8,7 +8,7 @@ import jinja2
 import pytest
 from conftest import ROOT, TESTS
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.report.context import certificate_context
 from armcal.report.pdf import TemplateFetcher
 from armcal.report.render import PACKAGED, TEMPLATE, certificate_files, render_html, write_files

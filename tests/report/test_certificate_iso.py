@@ -11,7 +11,7 @@ import pytest
 from scipy.stats import t as student_t
 from conftest import ROOT, armcal_cli, copy_example, shipped_specs
 
-from armcal.errors import SpecError
+from armcal.support.errors import SpecError
 from armcal.evaluate.acceptance import rms_uncertainty
 from armcal.commands.run import run
 from armcal.report.context import certificate_context

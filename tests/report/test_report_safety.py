@@ -13,7 +13,7 @@ import matplotlib
 import pytest
 from conftest import ROOT, TESTS
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.report.context import certificate_context
 from armcal.report.plots import draw_plots
 from armcal.report.pdf import TemplateFetcher

@@ -8,7 +8,7 @@ import pytest
 
 from armcal.results.calibrated import calibrated_yaml
 from armcal.spec.loader import load_spec, spec_from_bytes
-from armcal.units import DUST, snapped
+from armcal.support.units import DUST, snapped
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -108,7 +108,7 @@ def test_two_robots_or_chains_under_one_serial_are_not_compared_and_nonsense_num
     placeholder) is refused; a results.json whose parameter std is NaN, infinite or negative is not read."""
     import json
 
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
     from armcal.results.compare import compare
 
     golden = json.loads((Path(__file__).resolve().parents[1] / "data" / "golden" / "results.json").read_text())

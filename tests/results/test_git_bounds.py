@@ -1,4 +1,4 @@
-"""A hostile git repository is refused fast, with a message naming the file and revision (armcal/gitrepo.py).
+"""A hostile git repository is refused fast, with a message naming the file and revision (armcal/support/gitrepo.py).
 
 The repositories are written by hand (commit and tree as loose objects, the spec's blob in a pack built here),
 so every field git would check can lie: a delta chain deeper than git writes, a small pack that inflates far
@@ -15,9 +15,9 @@ import zlib
 import pytest
 from conftest import armcal_cli
 
-from armcal import gitrepo
-from armcal.errors import UserError
-from armcal.gitrepo import file_at_revision
+from armcal.support import gitrepo
+from armcal.support.errors import UserError
+from armcal.support.gitrepo import file_at_revision
 
 SPEC = b"robot: {name: r}\n"
 

@@ -137,7 +137,7 @@ def test_sonic_campaign_has_raw_ranges_and_rods(tmp_path, name):
 
 
 def test_a_procedure_that_plans_no_readable_pose_is_a_clear_error(tmp_path):
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
 
     loaded = _spec(tmp_path, "goswami_puma560", [("  longitudes: 23", "  longitudes: 4\n  radius: 500")])  # 5 m shells
     with pytest.raises(UserError, match="the calibration procedure plans no pose the instrument can read"):
@@ -173,7 +173,7 @@ def test_an_edited_or_undigested_truth_record_is_refused_and_its_layout_does_not
     import subprocess
     import sys
 
-    from armcal.errors import UserError
+    from armcal.support.errors import UserError
     from armcal.simulate import find_truth
 
     for example in sorted((ROOT / "examples").glob("*/truth.json")):

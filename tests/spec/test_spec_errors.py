@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from conftest import ROOT, SPECS, TESTS
 
-from armcal.errors import SpecError
+from armcal.support.errors import SpecError
 from armcal.spec import load_spec
 
 DATA = TESTS / "data"

@@ -29,8 +29,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from armcal import __version__
-from armcal.errors import UserError
-from armcal.fileio import current_umask, output_folder
+from armcal.support.errors import UserError
+from armcal.support.fileio import current_umask, output_folder
 
 MANIFEST = ".armcal-set.json"
 ARTIFACT_SUFFIXES = (".json", ".yaml", ".html", ".pdf", ".svg")  # what an armcal set holds (legacy sets had no manifest)

@@ -24,8 +24,8 @@ import stat
 import tempfile
 from pathlib import Path
 
-from armcal.errors import UserError
-from armcal.units import is_number
+from armcal.support.errors import UserError
+from armcal.support.units import is_number
 
 
 KiB, MiB = 1 << 10, 1 << 20

@@ -33,7 +33,7 @@ import time
 import zlib
 from pathlib import Path
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 
 OBJECT_ID = re.compile(r"[0-9a-f]{40}|[0-9a-f]{64}")  # SHA-1 or SHA-256 repositories
 UNREADABLE = (OSError, ValueError, IndexError, struct.error, zlib.error)

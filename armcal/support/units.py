@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import re
 
-from armcal.errors import shown_value, with_article
+from armcal.support.errors import shown_value, with_article
 
 LENGTH_UNITS: dict[str, float] = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "um": 1e-3, "in": 25.4}
 ANGLE_UNITS: dict[str, float] = {

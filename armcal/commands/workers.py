@@ -14,7 +14,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
 from typing import Any
 
-from armcal.errors import UserError
+from armcal.support.errors import UserError
 from armcal.identify.threads import limit, processors
 
 Progress = Callable[[Any], None]  # called with each result as it arrives

@@ -77,7 +77,7 @@ def case(name: str, spec: Path, folder: Path) -> list[dict]:
     if learned["residuals"] != plain["residuals"]:
         print(f"{name}: the physical figures differ between the runs with and without the model", flush=True)
     common = dict(accepted=model["accepted"], z=model["z"], seconds_with=seconds_with, seconds_without=seconds_without,
-                  judging=model["seconds"], added=[f"{e['type']} j{e['joint']}" for e in learned["diagnosis"]["added_effects"]])
+                  judging=model["seconds"], along=model["folds_along_joint"], hyperparameters=model["hyperparameters"], added=[f"{e['type']} j{e['joint']}" for e in learned["diagnosis"]["added_effects"]])
     rows = [dict(case=f"{name} k-fold", **figures(model["held_out"]), **common)]
     if model["validation"]:
         rows.append(dict(case=f"{name} validation", **figures(model["validation"]), **common))

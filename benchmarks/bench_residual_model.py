@@ -31,7 +31,6 @@ import numpy as np
 import yaml
 
 ROOT = Path(__file__).resolve().parent.parent
-ARMCAL = Path(sys.executable).parent / "armcal"
 sys.path.insert(0, str(ROOT / "benchmarks"))
 from bench_run import _ur10_spec  # noqa: E402
 
@@ -51,9 +50,10 @@ def with_model(path: Path) -> Path:
 
 
 def run(spec: Path, out: Path) -> tuple[dict, float]:
-    """results.json of one `armcal run` and its CPU seconds."""
+    """results.json of one `armcal run` of this checkout (python -m armcal in ROOT, not an installed copy elsewhere) and
+    its CPU seconds."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    done = subprocess.run([str(ARMCAL), "run", str(spec), "--out", str(out), "--no-pdf"], capture_output=True, text=True, cwd=ROOT)
+    done = subprocess.run([sys.executable, "-m", "armcal", "run", str(spec), "--out", str(out), "--no-pdf"], capture_output=True, text=True, cwd=ROOT)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode:
         raise SystemExit(f"armcal run {spec}: exit {done.returncode}\n{done.stderr}")

@@ -4,7 +4,7 @@ physical + learned, and the run's time with and without it.
 Cases: the Trailblazer tutorial's study (docs/tutorials/trailblazer.py: calibrate on flat.yaml, each other file held
 out at its own re-registered station), one `armcal run` per held-out file with the model and one without; and, with
 --ur10, the real UR10 (Series C calibrates, B is held out, as bench_run.py and docs/tutorials/ur10.md: its run with the
-model took about 1,000 s on a loaded 2-core machine, hence behind a flag). Skipped without ../shared/data.
+model takes about 380 s of CPU, 11 s without, as long as the six Trailblazer files together, hence behind a flag). Skipped without ../shared/data.
 
 Rows (from results.json's residual_model, mm): "k-fold" is the held-out error on the k-fold folds of the calibration
 data (flat.yaml, the same for every Trailblazer file: printed once); every other row is the validation data (the held-out

@@ -37,14 +37,13 @@ class IKResult:
     rotation_error: np.ndarray  # (N,) norm of the axis-column differences (~ rad for small errors)
 
 
-def error_function(model: KinematicModel, frame: str | None = None, full_pose: bool = True, width: int | None = None) -> ca.Function:
-    """delta(q, p, goal) and d delta / d q; goal = [p*, x*, y*, z*] (pose), [p*, z*] (point + axis) or, with
-    ``width`` 3, [p*] (a point, any orientation). The solvers build it for each call; a caller that solves many times
-    may build it once (and compile it) and pass it as ``error``."""
+def error_function(model: KinematicModel, frame: str | None = None, width: int = 12) -> ca.Function:
+    """delta(q, p, goal) and d delta / d q; goal of ``width`` 12 [p*, x*, y*, z*] (pose), 6 [p*, z*] (point + axis) or
+    3 [p*] (a point, any orientation). The solvers build it for each call; a caller that solves many times may build
+    it once (and compile it) and pass it as ``error``."""
     q = ca.SX.sym("q", model.dof)
     p = ca.SX.sym("p", len(model.parameters))
     T = model.fk(q, p) if frame is None else model.targets[frame](q, p)
-    width = width or (12 if full_pose else 6)
     goal = ca.SX.sym("goal", width)
     position = T[:3, 3] - goal[:3]
     axes = {12: ca.vertcat(T[:3, 0], T[:3, 1], T[:3, 2]), 6: T[:3, 2], 3: ca.SX(0, 1)}[width]

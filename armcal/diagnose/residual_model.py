@@ -124,16 +124,18 @@ class Judgement:
     seconds: float
 
 
+def _coordinates(residuals) -> dict[str, np.ndarray]:
+    """Per measured coordinate (channel) the indices of its readings taken at a pose (sample >= 0); a channel read at
+    none (a theodolite's certified distance between targets) is no coordinate of the model."""
+    channel = np.asarray(residuals.channel)
+    found = {name: np.flatnonzero((channel == name) & (residuals.sample >= 0)) for name in dict.fromkeys(residuals.channel)}
+    return {name: at for name, at in found.items() if len(at)}
+
+
 def _coordinate_data(problem: Problem, r: np.ndarray, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, float]]:
     """Per coordinate: the joint angles of its readings, measured - predicted (internal units), its median sigma."""
     res = problem.residuals
-    channel = np.asarray(res.channel)
-    out = {}
-    for name in dict.fromkeys(res.channel):
-        at = np.flatnonzero((channel == name) & (res.sample >= 0))
-        if len(at):
-            out[name] = (q[res.sample[at]], -r[at] * res.sigma[at], float(np.median(res.sigma[at])))
-    return out
+    return {name: (q[res.sample[at]], -r[at] * res.sigma[at], float(np.median(res.sigma[at]))) for name, at in _coordinates(res).items()}
 
 
 def spread_subset(q: np.ndarray, count: int) -> np.ndarray:
@@ -224,9 +226,7 @@ def summary(parts: list[tuple[Problem, np.ndarray, np.ndarray, np.ndarray]]) -> 
     for problem, r, change, out in parts:
         res = problem.residuals
         ok = res.sample >= 0
-        channel = np.asarray(res.channel)
-        for name in dict.fromkeys(res.channel):
-            at = ok & (channel == name)
+        for name, at in _coordinates(res).items():
             physical.setdefault(name, []).append(r[at] * res.sigma[at])
             learned.setdefault(name, []).append((r[at] + change[at]) * res.sigma[at])
         distances.append(_distances(problem, r, change))

@@ -21,7 +21,7 @@ from test_run import E_NOTATION
 import independent_sim as sim
 from armcal.dataio.reader import read_measurements
 from armcal.diagnose.calibration import identify_and_diagnose
-from armcal.diagnose.residual_model import MAX_TRAINING, fit_coordinate, spread_subset
+from armcal.diagnose.residual_model import MAX_TRAINING, fit_coordinate, spread_subset, summary
 from armcal.kinematics.compiler import compile_robot
 from armcal.commands.run import fitted_device, residual_model_note, run
 from armcal.spec import load_spec
@@ -174,6 +174,20 @@ def test_far_predictions_are_outside_unless_the_coordinate_learned_nothing():
     silent = fit_coordinate("y", q, np.zeros(200), 0.01)
     assert np.sqrt(silent.constant) < 0.1 * np.sqrt(silent.noise)  # the premise: nothing was learned
     assert silent.learned_nothing and silent.predict(far)[2].all()
+
+
+def test_a_channel_read_at_no_pose_is_no_coordinate_of_the_figures():
+    """A theodolite's certified distance (channel length, sample -1) has no joint angles: the figures hold azimuth
+    and elevation alone, each the RMS of its readings (sigma-weighted residuals back in their units), and no NaN."""
+    residuals = SimpleNamespace(channel=["azimuth", "elevation", "azimuth", "elevation", "length"],
+                                sample=np.array([0, 0, 1, 1, -1]), sigma=np.array([2.0, 2.0, 2.0, 2.0, 0.01]),
+                                key=["a", "a", "a", "a", "rod"])
+    r, change = np.array([1.0, -1.0, 3.0, 0.5, 7.0]), np.array([-0.5, 0.5, -1.0, 0.0, 0.0])
+    figures = summary([(SimpleNamespace(residuals=residuals), r, change, np.zeros(5, dtype=bool))])
+    assert list(figures.rms_physical) == ["azimuth", "elevation"]
+    assert figures.rms_physical["azimuth"] == pytest.approx(2.0 * np.sqrt((1.0 + 9.0) / 2))
+    assert figures.rms_learned["elevation"] == pytest.approx(2.0 * np.sqrt((0.25 + 0.25) / 2))
+    assert figures.rms_3d is None and figures.readings == 4
 
 
 def test_scikit_learn_is_imported_only_when_a_spec_asks_for_the_model():

@@ -374,17 +374,19 @@ STATIONS = {  # the robot base frame in the tracker frame at each set-up (mm, de
 
 
 def write_stationed_campaign(folder: pathlib.Path, seed: int, errors: dict[str, float], *, poses: int = 60,
-                             register: int = 8, evaluate: int = 25) -> dict:
+                             register: int = 8, evaluate: int = 25, bend=(0.0, 0.0, 0.0)) -> dict:
     """A PUMA 560 with a tracker, its base set up at calibration stations s1, s2, s3 (``poses`` configurations
     each) and at held-out stations n1, n2 (``register`` rows marked use: register, then ``evaluate`` rows), from
     docs/devices/tracker.md's station columns. The true robot is the nominal one plus ``errors`` (armcal's names:
-    j2.a mm, j2.alpha deg, smr.x mm...). Writes spec.yaml, calibration.csv, validation.csv; returns the truth and
-    the true readings' Jacobians the held-out statistics need."""
+    j2.a mm, j2.alpha deg, smr.x mm...) and a bend of the target, ``bend`` (mm, the robot's base frame) times
+    sin(2 (q2 + q3)), that no effect of the vocabulary expresses. Writes spec.yaml, calibration.csv, validation.csv;
+    returns the truth, the noise drawn per file (n, 3) and the true readings' Jacobians the held-out statistics need."""
     rng = np.random.default_rng(seed)
     folder = pathlib.Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    geom = stationed_geometry(errors)
+    geom = dict(stationed_geometry(errors), bend=np.asarray(bend, dtype=float))
     noise = TRACKER["noise"]
+    drawn = {}
     calibration, validation = [], []
     for name in ("s1", "s2", "s3"):
         calibration += [(name, "", q) for q in sample_configurations("puma560", poses, rng)]
@@ -394,15 +396,17 @@ def write_stationed_campaign(folder: pathlib.Path, seed: int, errors: dict[str, 
     for file, rows in (("calibration.csv", calibration), ("validation.csv", validation)):
         head = ["sample", "target", "station", *(f"q{i}" for i in range(1, 7)), "x", "y", "z"] + (["use"] if file == "validation.csv" else [])
         lines = [",".join(head)]
+        drawn[file] = []
         for n, (station, use, q) in enumerate(rows, start=1):
-            y = station_readings(geom, station, q[None] * DEG)[0] + rng.normal(0, noise, 3)
+            drawn[file].append(rng.normal(0, noise, 3))
+            y = station_readings(geom, station, q[None] * DEG)[0] + drawn[file][-1]
             lines.append(",".join([str(n), "smr", station, *(f"{v:.10f}" for v in q), *(f"{v:.6f}" for v in y)] + ([use] if use else [])))
         (folder / file).write_text("\n".join(lines) + "\n")
     text = spec_text("puma560", "tracker").replace("count: 120", f"count: {poses}")
     stations = "".join(f"\n    {s}: {{robot_base: {{x: 0, y: 0, z: 0, rz: 0, ry: 0, rx: 0}}}}   # registered by armcal" for s in ("s1", "s2", "s3"))
     text = text.replace("  noise:", "  stations:" + stations + "\n  noise:", 1)
     (folder / "spec.yaml").write_text(text)
-    return {"spec": folder / "spec.yaml", "geometry": geom, "noise": noise,
+    return {"spec": folder / "spec.yaml", "geometry": geom, "noise": noise, "drawn": {f: np.array(d) for f, d in drawn.items()},
             "calibration": calibration, "validation": validation}
 
 
@@ -418,8 +422,10 @@ def stationed_geometry(errors: dict[str, float]):
 
 
 def station_readings(geom, station, q):
-    """Noise-free x, y, z (N, 3) of the target at joint angles q (N, 6, rad) with the base at ``station``."""
+    """Noise-free x, y, z (N, 3) of the target at joint angles q (N, 6, rad) with the base at ``station``, bent by
+    geom's ``bend`` (if any) times sin(2 (q2 + q3)) in the base frame."""
     p = frames(geom, q)[-1] @ np.append(geom["targets"]["smr"], 1.0)
+    p[:, :3] += np.sin(2 * (q[:, 1] + q[:, 2]))[:, None] * geom.get("bend", np.zeros(3))
     return (p @ geom["stations"][station].T)[:, :3]
 
 

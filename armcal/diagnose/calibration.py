@@ -96,7 +96,7 @@ def identify_and_diagnose(
         if settings.residual_model == "gp":  # after the physical loop, on its folds (residual_model.py)
             residual = judge(diagnosis.context, diagnosis.problem, result)
             if diagnosis.validation is not None:
-                figures = applied(residual.model, diagnosis.validation, result.theta, np.nan_to_num(validation.q))
+                figures = applied(residual, diagnosis.validation, result.theta, validation.q, device)
         identified = Identified(result.theta, result.std, result)
         return Calibration(diagnosis.problem, diagnosis.validation, identified, diagnosis, padded, noise, residual, figures)
     validation_problem = None

@@ -1,12 +1,21 @@
 """The optional learned residual model (``diagnose.residual_model: gp``, issue 35): what the physical model leaves,
-learned on the joint angles by Gaussian processes, and kept only where it holds out as an effect must.
+learned on the joint values by Gaussian processes, and kept only where it holds out as an effect must.
 
-One scikit-learn GaussianProcessRegressor per measured coordinate (a channel: a tracker's x, y, z, a ball-bar's
-length), each on the joint angles (rad) with the kernel C * RBF(l_1..l_n) + White: one length scale per joint (ARD),
-bounded below at MIN_LENGTH_SCALE, and a noise level bounded below at (NOISE_FLOOR * sigma)^2, sigma the
+One scikit-learn GaussianProcessRegressor per learned coordinate, each on the joint values (rad for a revolute
+joint, mm for a prismatic one) with the kernel C * RBF(l_1..l_n) + White: one length scale per joint (ARD), bounded
+below at SHORTEST (per joint type), and a noise level bounded below at (NOISE_FLOOR * sigma)^2, sigma the
 coordinate's median declared (or estimated) sigma; hyperparameters by the marginal likelihood (a fixed
-random_state, one restart for the model on all the data, none for a fold's). Above MAX_TRAINING readings per coordinate a spread subset of that many trains it
-(farthest-point selection in joint space): the subset-of-data approximation, O(MAX_TRAINING^3) whatever the size.
+random_state, one restart for the model on all the data, none for a fold's). Above MAX_TRAINING readings per
+coordinate a spread subset of that many trains it (farthest-point selection in joint space): the subset-of-data
+approximation, O(MAX_TRAINING^3) whatever the size.
+
+The learned coordinates: a point read in x, y, z (a tracker's target) is learned as its error in the robot's base
+frame (base_x, base_y, base_z), so that what is learned at one station or instrument placement holds at another: the
+error is turned from the instrument frame it is read in by that frame's rotation: the rigid registration (Kabsch) of
+the points the model predicts with every instrument frame set to the base frame onto the points it predicts (the
+same points, turned and shifted; a station with fewer than 3 points takes the rotation the training data had there), and each correction is turned back into the frame it is
+applied in. Every other channel (a ball-bar's length, a theodolite's angles, a tracker's orientation) is a
+coordinate of its own, as read. Readings at no pose, or at joint values not all known, are none of its data.
 
 It enters after the physical loop has finished, never instead of an effect, and is judged on the loop's k-fold
 folds (loop.Context.fold_fits: each fold's physical fit of the other folds, as every effect's held-out errors) with
@@ -16,9 +25,10 @@ are contiguous ranges of the joint the model varies most along (its largest rang
 on all the calibration data), as an effect's are of the joint it follows; the validation data stay untouched.
 
 A prediction whose predictive standard deviation (of the learned function, without the noise term) exceeds
-OUTSIDE of the prior's is outside the calibrated region: it is not applied, and it is counted. A coordinate whose
-learned function's prior standard deviation is below NEGLIGIBLE of its noise term's learned nothing: no correction of
-it reaches a tenth of a reading's noise anywhere, so it has no region to leave and none of its predictions is counted.
+OUTSIDE of the prior's is outside the calibrated region: it is not applied, and it is counted (a point's per base
+coordinate: its other coordinates still apply). A coordinate whose learned function's prior standard deviation is below NEGLIGIBLE
+of its noise term's learned nothing: no correction of it reaches a tenth of a reading's noise anywhere, so it has no
+region to leave and none of its predictions is counted.
 """
 
 from __future__ import annotations
@@ -31,9 +41,15 @@ import numpy as np
 
 from armcal.diagnose.loop import Context, holds_out
 from armcal.identify.fit import FitResult
+from armcal.identify.heldout import FRAME_PREFIXES
 from armcal.identify.problem import Problem
+from armcal.kinematics.transforms import rigid_registration
 
-MIN_LENGTH_SCALE = 0.2  # rad: no faster variation along a joint than this is learned
+JOINT_UNIT = {"angle": "rad", "length": "mm"}  # the unit of a joint's value (params.joint_kind) in the model's inputs
+SHORTEST = {"revolute": 0.2, "prismatic": 20.0}  # rad, mm: no faster variation along a joint than this is learned
+# (0.2 rad turns a point 100 mm from the axis by 20 mm: the slide's length scale is bounded as that point's motion)
+POINT = ("x", "y", "z")  # the coordinates of a point read in an instrument frame
+BASE = ("base_x", "base_y", "base_z")  # its learned coordinates: the point's error in the robot's base frame
 NOISE_FLOOR = 0.5  # the noise term's standard deviation is at least this fraction of the declared sigma
 MAX_TRAINING = 800  # readings per coordinate that train a model at most (a spread subset above)
 OUTSIDE = 0.5  # predictive std / prior std above which a prediction is outside the calibrated region
@@ -51,25 +67,25 @@ FOLD_RESTARTS = 0  # and for each fold's model: a restart costs 2-3.5x a fit, an
 
 @dataclass(frozen=True)
 class CoordinateModel:
-    """One coordinate's Gaussian process: its training inputs (rad) and targets (measured - predicted, internal
-    units), the hyperparameters, and the fitted regressor."""
+    """One coordinate's Gaussian process: its training inputs (joint values, rad or mm) and targets (measured -
+    predicted, internal units), the hyperparameters, and the fitted regressor."""
 
     channel: str
     q: np.ndarray
     y: np.ndarray
     constant: float  # prior variance of the learned function
-    length_scales: np.ndarray  # rad, one per joint
+    length_scales: np.ndarray  # one per joint, in its unit (rad or mm)
     noise: float  # variance of the noise term
     regressor: object = field(repr=False, compare=False)
 
     def carried(self) -> dict:
         """What reproduces the model's predictions elsewhere (results.json, ``export --format json``): the training
         inputs and targets and the hyperparameters of C * RBF(l) + White, fitted no more."""
-        return {"coordinate": self.channel, "inputs_rad": self.q.tolist(), "targets": self.y.tolist(),
-                "signal_variance": self.constant, "length_scales_rad": self.length_scales.tolist(), "noise_variance": self.noise}
+        return {"coordinate": self.channel, "inputs": self.q.tolist(), "targets": self.y.tolist(),
+                "signal_variance": self.constant, "length_scales": self.length_scales.tolist(), "noise_variance": self.noise}
 
     def predict(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The learned correction (measured - predicted) at joint angles ``q`` (rad), its standard deviation (the
+        """The learned correction (measured - predicted) at joint values ``q``, its standard deviation (the
         function's, without the noise term) and whether it is inside the calibrated region."""
         mean, std = self.regressor.predict(q, return_std=True)
         latent = np.sqrt(np.maximum(std**2 - self.noise, 0.0))
@@ -81,23 +97,72 @@ class CoordinateModel:
 
 
 @dataclass(frozen=True)
+class Layout:
+    """Where a problem's readings go in the learned model: per channel the rows of its readings that are a coordinate
+    as read; the points, rows (n, 3) of the x, y, z of one sample and key; the turn (n, 3, 3) of each point from the
+    robot's base frame into the instrument frame it is read in, and the turn of each station (None: the instrument's
+    one placement)."""
+
+    channels: dict[str, np.ndarray]
+    points: np.ndarray
+    turn: np.ndarray
+    turns: dict
+
+
+def layout(problem: Problem, r: np.ndarray, q: np.ndarray, theta: np.ndarray, device, known: dict | None = None) -> Layout:
+    """The layout of ``problem``'s readings (weighted residuals ``r`` at ``theta``; ``q`` the joint values of its
+    samples), each station's turn registered from its points, or taken from ``known`` where they are fewer than 3."""
+    res = problem.residuals
+    posed = res.sample >= 0
+    posed[posed] = np.all(np.isfinite(q[res.sample[posed]]), axis=1)
+    channel = np.asarray(res.channel)
+    read_as_point = np.isin(channel, POINT) & np.array([device.target(k) is not None for k in res.key], dtype=bool)
+    points: dict[tuple, dict[str, int]] = {}
+    for i in np.flatnonzero(posed & read_as_point):
+        points.setdefault((int(res.sample[i]), res.key[i]), {})[channel[i]] = int(i)
+    whole = {at: [p[c] for c in POINT] for at, p in points.items() if len(p) == 3}
+    rows = np.array(list(whole.values()), dtype=int).reshape(-1, 3)
+    keys = [key for _, key in whole]
+    stations = [device.station(key) for key in keys]
+    turns = dict(known or {})
+    if len(rows):
+        framed = np.array([name.startswith(FRAME_PREFIXES) for name in problem.parameters.names])
+        r_base, _ = Problem.evaluate(problem, np.where(framed, 0.0, theta))  # every instrument frame the base frame, none registered
+        base = res.measured[rows] + r_base[rows] * res.sigma[rows]  # the predicted points in the robot's base frame
+    for station in dict.fromkeys(stations):
+        mine = np.flatnonzero([s == station for s in stations])
+        if len(mine) >= 3:
+            at = rows[mine]
+            turns[station] = rigid_registration(base[mine].reshape(-1, 3), (res.measured[at] + r[at] * res.sigma[at]).reshape(-1, 3))[:3, :3]
+    have = np.array([s in turns for s in stations], dtype=bool)
+    rows = rows[have]
+    turn = np.array([turns[s] for s, h in zip(stations, have) if h]).reshape(-1, 3, 3)
+    found = {name: np.flatnonzero(posed & ~read_as_point & (channel == name)) for name in dict.fromkeys(res.channel)}
+    return Layout({name: at for name, at in found.items() if len(at)}, rows, turn, turns)
+
+
+@dataclass(frozen=True)
 class ResidualModel:
     coordinates: dict[str, CoordinateModel]
 
-    def correction(self, problem: Problem, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per reading of ``problem`` (samples at joint angles ``q``, rad): the weighted change of its residual
-        (predicted - measured) / sigma where the model applies, zero elsewhere, and whether it is outside the
-        calibrated region (readings of a coordinate without a model are neither)."""
+    def correction(self, problem: Problem, placed: Layout, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per reading of ``problem`` (its layout ``placed``; ``q`` its samples' joint values): the weighted change
+        of its residual (predicted - measured) / sigma where the model applies, zero elsewhere, and whether it is
+        outside the calibrated region (readings of a coordinate without a model are neither)."""
         res = problem.residuals
         change, outside = np.zeros(len(res.sigma)), np.zeros(len(res.sigma), dtype=bool)
-        channel = np.asarray(res.channel)
-        for name, model in self.coordinates.items():
-            at = np.flatnonzero((channel == name) & (res.sample >= 0))
-            if not len(at):
-                continue
-            mean, _, inside = model.predict(q[res.sample[at]])
-            change[at] = np.where(inside, mean / res.sigma[at], 0.0)
-            outside[at] = ~inside
+        for name, at in placed.channels.items():
+            if name in self.coordinates:
+                mean, _, inside = self.coordinates[name].predict(q[res.sample[at]])
+                change[at] = np.where(inside, mean / res.sigma[at], 0.0)
+                outside[at] = ~inside
+        if len(placed.points) and set(BASE) <= set(self.coordinates):
+            at = placed.points
+            predicted = [self.coordinates[name].predict(q[res.sample[at[:, 0]]]) for name in BASE]
+            inside = np.stack([p[2] for p in predicted], axis=1)  # (n, 3): per base coordinate
+            turned = np.einsum("nij,nj->ni", placed.turn, np.where(inside, np.stack([p[0] for p in predicted], axis=1), 0.0))
+            change[at] = turned / res.sigma[at]
+            outside[at] = ~inside  # counted per base coordinate, three to a point
         return change, outside
 
 
@@ -105,9 +170,9 @@ class ResidualModel:
 class Figures:
     """Held-out errors with and without the learned model (internal units: mm for lengths)."""
 
-    rms_physical: dict[str, float]  # RMS per coordinate, physical model
+    rms_physical: dict[str, float]  # RMS per coordinate as read, physical model
     rms_learned: dict[str, float]  # physical model + learned model
-    rms_3d: tuple[float, float] | None  # RMS of the 3D distance (tracker x, y, z), physical and learned
+    rms_3d: tuple[float, float] | None  # RMS of the 3D distance (points read in x, y, z), physical and learned
     outside: int  # readings whose prediction was outside the calibrated region (not applied)
     readings: int
 
@@ -121,21 +186,28 @@ class Judgement:
     along: int | None  # the joint whose contiguous ranges were the folds
     held_out: Figures  # of the k-fold folds, each fold predicted by the others' fit and model
     model: ResidualModel
+    turns: dict  # each station's turn from the robot's base frame on the calibration data (Layout.turns)
     seconds: float
 
 
 def _coordinates(residuals) -> dict[str, np.ndarray]:
-    """Per measured coordinate (channel) the indices of its readings taken at a pose (sample >= 0); a channel read at
-    none (a theodolite's certified distance between targets) is no coordinate of the model."""
+    """Per channel as read the indices of its readings taken at a pose (sample >= 0); a channel read at none (a
+    theodolite's certified distance between targets) has no figures."""
     channel = np.asarray(residuals.channel)
     found = {name: np.flatnonzero((channel == name) & (residuals.sample >= 0)) for name in dict.fromkeys(residuals.channel)}
     return {name: at for name, at in found.items() if len(at)}
 
 
-def _coordinate_data(problem: Problem, r: np.ndarray, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, float]]:
-    """Per coordinate: the joint angles of its readings, measured - predicted (internal units), its median sigma."""
+def _coordinate_data(problem: Problem, r: np.ndarray, placed: Layout, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, float]]:
+    """Per learned coordinate: the joint values of its readings, measured - predicted (internal units; a point's
+    turned into the robot's base frame), its median sigma."""
     res = problem.residuals
-    return {name: (q[res.sample[at]], -r[at] * res.sigma[at], float(np.median(res.sigma[at]))) for name, at in _coordinates(res).items()}
+    data = {name: (q[res.sample[at]], -r[at] * res.sigma[at], float(np.median(res.sigma[at]))) for name, at in placed.channels.items()}
+    if len(placed.points):
+        at = placed.points
+        base = np.einsum("nji,nj->ni", placed.turn, -r[at] * res.sigma[at])  # R' e: the error in the base frame
+        data.update({name: (q[res.sample[at[:, 0]]], base[:, k], float(np.median(res.sigma[at]))) for k, name in enumerate(BASE)})
+    return data
 
 
 def spread_subset(q: np.ndarray, count: int) -> np.ndarray:
@@ -151,8 +223,14 @@ def spread_subset(q: np.ndarray, count: int) -> np.ndarray:
     return np.sort(np.asarray(chosen))
 
 
-def fit_coordinate(channel: str, q: np.ndarray, y: np.ndarray, sigma: float, restarts: int = RESTARTS) -> CoordinateModel:
-    """One coordinate's Gaussian process, hyperparameters by the marginal likelihood (module docstring)."""
+def shortest_scales(kinematics) -> np.ndarray:
+    """Each joint's shortest length scale (SHORTEST of its type, rad or mm)."""
+    return np.array([SHORTEST[kind] for kind in kinematics.joint_types])
+
+
+def fit_coordinate(channel: str, q: np.ndarray, y: np.ndarray, sigma: float, shortest: np.ndarray, restarts: int = RESTARTS) -> CoordinateModel:
+    """One coordinate's Gaussian process, hyperparameters by the marginal likelihood (module docstring); length
+    scales from ``shortest`` (one per joint) up."""
     from sklearn.exceptions import ConvergenceWarning  # scikit-learn only when a spec asks for the model
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
@@ -162,7 +240,7 @@ def fit_coordinate(channel: str, q: np.ndarray, y: np.ndarray, sigma: float, res
     floor = (NOISE_FLOOR * sigma) ** 2
     scale = max(float(np.var(y)), floor)
     kernel = ConstantKernel(scale, (scale * 1e-6, scale * 1e3)) * RBF(
-        np.ones(q.shape[1]), (MIN_LENGTH_SCALE, 1e3)
+        5.0 * shortest, np.stack([shortest, 5e3 * shortest], axis=1)
     ) + WhiteKernel(max(sigma**2, floor), (floor, max(sigma**2, floor) * 1e4))
     regressor = GaussianProcessRegressor(kernel, n_restarts_optimizer=restarts, random_state=RANDOM_STATE)
     with warnings.catch_warnings():  # a hyperparameter at its bound is an answer here (no variation: a long scale)
@@ -175,15 +253,16 @@ def fit_coordinate(channel: str, q: np.ndarray, y: np.ndarray, sigma: float, res
     )
 
 
-def fit_model(problem: Problem, theta: np.ndarray, q: np.ndarray, restarts: int = RESTARTS) -> ResidualModel:
-    """The learned model of ``problem``'s residuals at ``theta`` (``q``: the joint angles of its samples, rad)."""
-    r, _ = problem.evaluate(theta)
-    return ResidualModel({name: fit_coordinate(name, *data, restarts) for name, data in _coordinate_data(problem, r, q).items()})
+def fit_model(problem: Problem, r: np.ndarray, placed: Layout, q: np.ndarray, shortest: np.ndarray, restarts: int = RESTARTS) -> ResidualModel:
+    """The learned model of ``problem``'s weighted residuals ``r`` (its layout ``placed``; ``q``: the joint values of
+    its samples)."""
+    data = _coordinate_data(problem, r, placed, q)
+    return ResidualModel({name: fit_coordinate(name, *values, shortest, restarts) for name, values in data.items()})
 
 
 def _along(model: ResidualModel, q: np.ndarray) -> int | None:
-    """The joint the model varies most along: the largest range of its angle over its length scale (1-based)."""
-    span = np.ptp(q, axis=0)
+    """The joint the model varies most along: the largest range of its values over its length scale (1-based)."""
+    span = np.ptp(np.nan_to_num(q), axis=0)
     ratio = np.max([span / m.length_scales for m in model.coordinates.values()], axis=0)
     return int(np.argmax(ratio)) + 1 if np.any(ratio > 0) else None
 
@@ -191,66 +270,55 @@ def _along(model: ResidualModel, q: np.ndarray) -> int | None:
 def judge(context: Context, problem: Problem, result: FitResult) -> Judgement:
     """Train the model on all the calibration data, then test it on the loop's folds (module docstring)."""
     started = time.perf_counter()
-    q = np.nan_to_num(context.calibration.q)
-    model = fit_model(problem, result.theta, q)
+    kinematics, device, q = context.kinematics, context.device, context.calibration.q
+    shortest = shortest_scales(kinematics)
+    r, _ = problem.evaluate(result.theta)
+    placed = layout(problem, r, q, result.theta, device)
+    model = fit_model(problem, r, placed, q, shortest)
     along = _along(model, q)
     before, after = np.zeros(context.pose.max() + 1), np.zeros(context.pose.max() + 1)
     parts = []
     for fold in context.fold_fits(problem, result.theta, set(), result.identifiability, along):
+        r_train, _ = fold.train.evaluate(fold.theta)
+        trained = layout(fold.train, r_train, q[fold.train_rows], fold.theta, device, placed.turns)
+        fold_model = fit_model(fold.train, r_train, trained, q[fold.train_rows], shortest, FOLD_RESTARTS)
         r, _ = fold.test.evaluate(fold.theta)
-        fold_model = fit_model(fold.train, fold.theta, q[fold.train_rows], FOLD_RESTARTS)
-        change, outside = fold_model.correction(fold.test, q[fold.rows])
+        tested = layout(fold.test, r, q[fold.rows], fold.theta, device, trained.turns)
+        change, outside = fold_model.correction(fold.test, tested, q[fold.rows])
         ok = fold.test.residuals.sample >= 0
         pose = context.pose[fold.rows[fold.test.residuals.sample[ok]]]
         np.add.at(before, pose, r[ok] ** 2)
         np.add.at(after, pose, (r[ok] + change[ok]) ** 2)
-        parts.append((fold.test, r, change, outside))
+        parts.append((fold.test, r, change, outside, tested))
     accepted, z = holds_out(before, after)
-    return Judgement(accepted, z, along, summary(parts), model, time.perf_counter() - started)
+    return Judgement(accepted, z, along, summary(parts), model, placed.turns, time.perf_counter() - started)
 
 
-def applied(model: ResidualModel, problem: Problem, theta: np.ndarray, q: np.ndarray) -> Figures:
-    """The errors of ``problem`` (e.g. the validation data; ``q`` its samples' joint angles, rad) at ``theta`` without
-    and with the model."""
+def applied(judgement: Judgement, problem: Problem, theta: np.ndarray, q: np.ndarray, device) -> Figures:
+    """The errors of ``problem`` (e.g. the validation data; ``q`` its samples' joint values) at ``theta`` without and
+    with the judged model; a station the calibration data had keeps their turn where it has fewer than 3 points."""
     r, _ = problem.evaluate(theta)
-    change, outside = model.correction(problem, q)
-    return summary([(problem, r, change, outside)])
+    placed = layout(problem, r, q, theta, device, judgement.turns)
+    change, outside = judgement.model.correction(problem, placed, q)
+    return summary([(problem, r, change, outside, placed)])
 
 
-def summary(parts: list[tuple[Problem, np.ndarray, np.ndarray, np.ndarray]]) -> Figures:
-    """RMS per coordinate and 3D, without and with the model's change, over (problem, weighted residuals, change,
-    outside) parts."""
+def summary(parts: list[tuple[Problem, np.ndarray, np.ndarray, np.ndarray, Layout]]) -> Figures:
+    """RMS per coordinate as read and 3D (of the points), without and with the model's change, over (problem,
+    weighted residuals, change, outside, layout) parts."""
     physical: dict[str, list[np.ndarray]] = {}
     learned: dict[str, list[np.ndarray]] = {}
     distances, outside, readings = [], 0, 0
-    for problem, r, change, out in parts:
+    for problem, r, change, out, placed in parts:
         res = problem.residuals
         ok = res.sample >= 0
         for name, at in _coordinates(res).items():
             physical.setdefault(name, []).append(r[at] * res.sigma[at])
             learned.setdefault(name, []).append((r[at] + change[at]) * res.sigma[at])
-        distances.append(_distances(problem, r, change))
+        at = placed.points
+        distances.append(np.linalg.norm(np.stack([r[at], r[at] + change[at]]) * res.sigma[at], axis=2))
         outside, readings = outside + int(out[ok].sum()), readings + int(ok.sum())
     rms = lambda values: {name: float(np.sqrt(np.mean(np.concatenate(v) ** 2))) for name, v in values.items()}  # noqa: E731
-    rms_3d = None
-    if distances and all(d is not None for d in distances):
-        both = np.concatenate(distances, axis=1)
-        rms_3d = (float(np.sqrt(np.mean(both[0] ** 2))), float(np.sqrt(np.mean(both[1] ** 2))))
+    both = np.concatenate(distances, axis=1) if distances else np.zeros((2, 0))
+    rms_3d = (float(np.sqrt(np.mean(both[0] ** 2))), float(np.sqrt(np.mean(both[1] ** 2)))) if both.shape[1] else None
     return Figures(rms(physical), rms(learned), rms_3d, outside, readings)
-
-
-def _distances(problem: Problem, r: np.ndarray, change: np.ndarray) -> np.ndarray | None:
-    """The 3D error of each (sample, key) read in x, y and z (internal units), physical and learned (2, n);
-    None when the readings are not points."""
-    res = problem.residuals
-    if not {"x", "y", "z"} <= set(res.channel):
-        return None
-    points: dict[tuple, dict[str, tuple[float, float]]] = {}
-    for i, (sample, key, channel) in enumerate(zip(res.sample, res.key, res.channel)):
-        if sample >= 0 and channel in ("x", "y", "z"):
-            points.setdefault((int(sample), str(key)), {})[channel] = (r[i] * res.sigma[i], (r[i] + change[i]) * res.sigma[i])
-    whole = [p for p in points.values() if len(p) == 3]
-    if not whole:
-        return None
-    values = np.array([[p[c] for c in ("x", "y", "z")] for p in whole])  # (n, 3, 2)
-    return np.sqrt(np.sum(values**2, axis=1)).T

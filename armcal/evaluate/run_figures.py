@@ -10,13 +10,14 @@ from armcal.evaluate.held_out_check import held_out_check
 from armcal.diagnose.loop import Diagnosis
 from armcal.diagnose.calibration import Calibration
 from armcal.diagnose.loop import HOLDS_OUT
-from armcal.diagnose.residual_model import NOT_CARRIED, OUTSIDE, Figures
+from armcal.diagnose.residual_model import JOINT_UNIT, NOT_CARRIED, OUTSIDE, Figures
 from armcal.evaluate.acceptance import acceptance_block
 from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
 from armcal.evaluate.residuals import before_after, distance_before_after, improvement, reading_noise, readings_residuals, residual_unit
 from armcal.identify.uncertainty import residual_stats
 from armcal.kinematics.parallel_axes import parallel_axes
+from armcal.kinematics.params import joint_kind
 from armcal.spec import LoadedSpec
 from armcal.spec.effect_vocabulary import EFFECT_TYPES
 from armcal.support.units import from_internal
@@ -249,9 +250,10 @@ def residual_model_block(loaded: LoadedSpec, calibration: Calibration) -> dict |
         "held_out": figures(judgement.held_out),
         "validation": figures(calibration.residual_validation),
         "outside_fraction": OUTSIDE,
+        "joint_units": [JOINT_UNIT[joint_kind(j.type)] for j in loaded.spec.robot.joints],
         "hyperparameters": [
             {"coordinate": n, "unit": unit(n), "signal_std": shown(n, float(np.sqrt(m.constant))), "noise_std": shown(n, float(np.sqrt(m.noise))),
-             "length_scales_rad": [float(v) for v in m.length_scales], "training_readings": len(m.y)}
+             "length_scales": [float(v) for v in m.length_scales], "training_readings": len(m.y)}
             for n, m in judgement.model.coordinates.items()
         ],
         "seconds": judgement.seconds,

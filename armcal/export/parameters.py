@@ -33,5 +33,6 @@ def parameters_json(loaded: LoadedSpec, results: dict | None) -> str:
     }
     learned = (results or {}).get("residual_model") or {}
     if learned.get("model"):  # the run's accepted learned residual model (docs/export.md)
-        document["residual_model"] = {"kind": learned["kind"], "outside_fraction": learned["outside_fraction"], "coordinates": learned["model"]}
+        document["residual_model"] = {"kind": learned["kind"], "outside_fraction": learned["outside_fraction"],
+                                     "joint_units": learned["joint_units"], "coordinates": learned["model"]}
     return json.dumps(document, indent=2) + "\n"

@@ -239,19 +239,19 @@ class LearnedHyperparameters(_Frozen):
     unit: str
     signal_std: float  # prior standard deviation of the learned function
     noise_std: float
-    length_scales_rad: list[float]  # one per joint
+    length_scales: list[float]  # one per joint, in its unit (joint_units)
     training_readings: int
 
 
 class LearnedCoordinate(_Frozen):
     """What reproduces one coordinate's learned model: a Gaussian process with the kernel
-    signal_variance * RBF(length_scales_rad) + noise_variance * White, conditioned on the targets at the inputs."""
+    signal_variance * RBF(length_scales) + noise_variance * White, conditioned on the targets at the inputs."""
 
-    coordinate: str
-    inputs_rad: list[list[float]]  # joint angles of the training readings
+    coordinate: str  # a channel as read, or base_x, base_y, base_z: a point's error in the robot's base frame
+    inputs: list[list[float]]  # joint values of the training readings (joint_units)
     targets: list[float]  # measured - predicted by the physical model, mm (rad for an angle)
     signal_variance: float
-    length_scales_rad: list[float]
+    length_scales: list[float]
     noise_variance: float
 
 
@@ -263,10 +263,11 @@ class ResidualModelResult(_Frozen):
     z: float  # change of the held-out squared error, in standard errors (accepted below -threshold)
     threshold: float
     folds: int
-    folds_along_joint: int | None  # the folds are contiguous ranges of this joint's angle
+    folds_along_joint: int | None  # the folds are contiguous ranges of this joint's values
     held_out: LearnedFigures  # k-fold over the calibration poses
     validation: LearnedFigures | None = None  # the validation data (final figures)
     outside_fraction: float  # the predictive std above which a prediction is outside the calibrated region, of the prior's
+    joint_units: list[str]  # of the joint values the model is learned on: rad (revolute) or mm (prismatic)
     hyperparameters: list[LearnedHyperparameters]
     seconds: float
     carried: str  # where the model goes beyond this run

@@ -115,7 +115,7 @@ class Context:
     ) -> np.ndarray:
         """Each held-out pose's sum of squared weighted residuals: of the validation set's samples, or of the
         calibration poses, each predicted by a fit (on the full fit's base set) of the folds without it. ``along``
-        a joint, each fold is a contiguous range of that joint's values (folds_along)."""
+        a joint, each fold is a contiguous range of that joint's values (EffectSpec.followed_joint)."""
         if self.judge == "validation":
             r, _ = self.validation.evaluate(theta)
             return np.bincount(self.validation.residuals.sample[self.validation.residuals.sample >= 0], r[self.validation.residuals.sample >= 0] ** 2)
@@ -131,7 +131,7 @@ class Context:
     ) -> Iterator[FoldFit]:
         """The k-fold fits of the calibration poses, fold by fold: the problems of the folds without it (training) and of
         the fold (test), and the fit of the training folds from ``theta`` on the full fit's base set. ``along`` a joint,
-        each fold is a contiguous range of that joint's values (folds_along). The effects' held-out errors and the
+        each fold is a contiguous range of that joint's values (EffectSpec.followed_joint). The effects' held-out errors and the
         learned residual model's (residual_model.py) come from these same fits."""
         fold = self.folds[along][self.pose]
         for k in range(self.settings.folds):
@@ -153,16 +153,6 @@ def contiguous_folds(values: np.ndarray, folds: int) -> np.ndarray:
     if counts.max() > len(values) / folds:
         return np.arange(len(values)) % folds
     return np.argsort(np.argsort(values, kind="stable")) * folds // len(values)
-
-
-def folds_along(effect: EffectSpec) -> int | None:
-    """The joint whose angle a joint-side effect follows (a coupling: the driving joint), None for the others.
-    Cross-validated along it, each fold holds out a contiguous range of that angle, so an effect must predict
-    beyond the range it was fitted on, as a calibration is used: a function of one joint fitted over part of
-    its period (a harmonic of order 3 over 96 deg of the UR10's shoulder) then fails, a physical one holds."""
-    if effect.type == "joint_coupling":
-        return effect.source_joint
-    return effect.joint if effect.joint is not None else None
 
 
 def holds_out(before: np.ndarray, after: np.ndarray) -> tuple[bool, float]:
@@ -226,7 +216,7 @@ def run_diagnosis(
             trial_problem = with_free(problem, set(names))
             trial_base = extend(result.identifiability, J_design, problem.parameters, names)
             trial = fit(trial_problem, fit_settings, start=result.theta, identifiability=trial_base)
-            along = folds_along(test.effect)
+            along = test.effect.followed_joint
             if along not in before:
                 before[along] = context.held_out_errors(problem, result.theta, set(), result.identifiability, along)
             ok, z = holds_out(before[along], context.held_out_errors(trial_problem, trial.theta, set(names), trial_base, along))

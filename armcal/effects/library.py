@@ -83,9 +83,21 @@ class EffectSpec:
         return tuple(k for k in self.values if is_product(k)) if self.type in ("joint_compliance", "joint_bending") else ()
 
     @property
-    def form(self) -> str:
-        """joint_compliance: "moments" when it has products, else "masses" (c x torque of lumped masses)."""
+    def form(self) -> str | None:
+        """joint_compliance: "moments" when it has products, else "masses" (c x torque of lumped masses); None for
+        the other types."""
+        if self.type != "joint_compliance":
+            return None
         return "moments" if self.terms else "masses"
+
+    @property
+    def followed_joint(self) -> int | None:
+        """The joint whose angle a joint-side effect follows (a coupling: the driving joint), None for the others.
+        Cross-validated along it (diagnose/loop.py), each fold holds out a contiguous range of that angle, so an
+        effect must predict beyond the range it was fitted on, as a calibration is used: a function of one joint
+        fitted over part of its period (a harmonic of order 3 over 96 deg of the UR10's shoulder) then fails, a
+        physical one holds."""
+        return self.source_joint if self.source_joint is not None else self.joint
 
     @property
     def id(self) -> str:

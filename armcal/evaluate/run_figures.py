@@ -176,7 +176,7 @@ def effect_result(loaded: LoadedSpec, effect: EffectSpec, problem, theta: np.nda
         shown = lambda v: None if v is None or np.isnan(v) else from_internal(float(v), p.kind, unit)  # noqa: E731
         parameters.append({"name": p.name, "value": shown(theta[i]), "std": shown(std[i]), "unit": unit})
     return {"type": effect.type, "joint": effect.joint, "order": effect.order, "parameters": parameters,
-            "from_joint": effect.source_joint, "form": effect.form if effect.type == "joint_compliance" else None}
+            "from_joint": effect.source_joint, "form": effect.form}
 
 
 def diagnosis_block(loaded: LoadedSpec, calibration: Calibration) -> dict:

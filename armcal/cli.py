@@ -391,7 +391,7 @@ def compensate(
 
     Exit 3 when a target is unreachable: its row says why, and every other row is written all the same.
     """
-    from armcal.export import calibration_source, learned_model
+    from armcal.export import calibration_source
     from armcal.export.compensation import compensate as compensated_commands
     from armcal.dataio.reader import data_text
     from armcal.report.numbers import counted
@@ -400,7 +400,7 @@ def compensate(
     refuse_replacing([out], [*_calibration_inputs(source), targets], force)
     loaded, results = calibration_source(source)
     text = data_text(targets)
-    commands, unreached, left_out = compensated_commands(loaded, results, text, str(targets))
+    commands, unreached, left_out, learned = compensated_commands(loaded, results, text, str(targets))
     write_text_atomic(out, commands)
     reached = sum(1 for _ in csv.reader(io.StringIO(commands))) - 1 - len(unreached)  # records, not lines: a quoted name may hold a line break
     typer.echo(f"wrote {out}: {counted(reached, 'target')} reached" + (f", {len(unreached)} not" if unreached else ""))
@@ -408,8 +408,8 @@ def compensate(
         typer.echo(f"  unreachable: {line}")
     if left_out:
         typer.echo(f"  not compensated (they do not follow the joints alone): {', '.join(left_out)}")
-    if (learned := learned_model(loaded, results)) is not None:
-        typer.echo(f"  not compensated: {learned} (docs/export.md)")
+    if learned is not None:
+        typer.echo(f"  {learned} (docs/export.md)")
     if results is None:
         typer.echo("  no corrected Cartesian targets: they need the nominal model, in a run's results.json (give the run's folder)")
     if unreached and not allow_unreachable:

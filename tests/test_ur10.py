@@ -90,7 +90,7 @@ def _commands(loaded, results, registration: np.ndarray, measured: np.ndarray, s
     for i, (M, seed) in enumerate(zip(measured, seeds)):
         x, y, z, rz, ry, rx = pose_from_matrix(np.linalg.inv(registration) @ M @ np.linalg.inv(probe))
         lines.append(",".join([f"b{i}", *(repr(float(v)) for v in (x, y, z, *np.rad2deg([rx, ry, rz]), *np.rad2deg(seed)))]))
-    text, _, _ = compensate(loaded, results, "\n".join(lines) + "\n", "B targets")
+    text, _, _, _ = compensate(loaded, results, "\n".join(lines) + "\n", "B targets")
     rows = list(csv.DictReader(text.splitlines()))
     return np.deg2rad([[float(r[f"q{i}"] or "nan") for i in range(1, 7)] for r in rows]), np.array([r["status"] == "ok" for r in rows])
 

@@ -111,11 +111,17 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
 
 
 def residual_model_note(spec, calibrated) -> list[str]:
-    """The learned residual model the spec asks for was not judged: it is judged on the diagnosis' folds."""
-    if spec.diagnose.residual_model == "none" or calibrated.residual is not None:
-        return []
-    return ["diagnose.residual_model: gp was not run: it is judged on the diagnosis' k-fold folds, and no diagnosis ran "
-            "(diagnose.enabled false, diagnose.max_rounds 0, or fit.method other than least_squares)"]
+    """The learned residual model the spec asks for was not judged (it is judged on the diagnosis' folds); the one a
+    spec stores (residual_model, an earlier run's) is not this run's: it learns its own, never mixed with it."""
+    notes = []
+    if spec.residual_model is not None:
+        notes.append("the spec's residual_model (an earlier run's learned model) is not used: this run's model is its physical fit"
+                     + (" and the learned model it judges itself" if spec.diagnose.residual_model == "gp" else "")
+                     + "; calibrated.yaml holds this run's accepted model only")
+    if spec.diagnose.residual_model == "gp" and calibrated.residual is None:
+        notes.append("diagnose.residual_model: gp was not run: it is judged on the diagnosis' k-fold folds, and no diagnosis ran "
+                     "(diagnose.enabled false, diagnose.max_rounds 0, or fit.method other than least_squares)")
+    return notes
 
 
 def check_readable(device, data) -> None:

@@ -44,20 +44,19 @@ from armcal.identify.fit import FitResult
 from armcal.identify.heldout import FRAME_PREFIXES
 from armcal.identify.problem import Problem
 from armcal.kinematics.transforms import rigid_registration
+from armcal.spec.learned import BASE, MAX_TRAINING, ResidualModelSection
 
-JOINT_UNIT = {"angle": "rad", "length": "mm"}  # the unit of a joint's value (params.joint_kind) in the model's inputs
 SHORTEST = {"revolute": 0.2, "prismatic": 20.0}  # rad, mm: no faster variation along a joint than this is learned
 # (0.2 rad turns a point 100 mm from the axis by 20 mm: the slide's length scale is bounded as that point's motion)
 POINT = ("x", "y", "z")  # the coordinates of a point read in an instrument frame
-BASE = ("base_x", "base_y", "base_z")  # its learned coordinates: the point's error in the robot's base frame
 NOISE_FLOOR = 0.5  # the noise term's standard deviation is at least this fraction of the declared sigma
-MAX_TRAINING = 800  # readings per coordinate that train a model at most (a spread subset above)
 OUTSIDE = 0.5  # predictive std / prior std above which a prediction is outside the calibrated region
 NEGLIGIBLE = 0.1  # prior std / noise std below which a coordinate's model learned nothing (never outside)
 RANDOM_STATE = 0
-NOT_CARRIED = (
-    "The learned model is carried by results.json and export --format json (its training inputs and hyperparameters); "
-    "calibrated.yaml, the other export formats and compensate carry the physical model only"
+CARRIED = (
+    "The learned model is carried by results.json, calibrated.yaml (its residual_model section), export --format json (its training "
+    "inputs and hyperparameters) and compensate (a point's base-frame correction, applied to the target's position where it is "
+    "inside the calibrated region); the other export formats carry the physical model only"
 )
 RESTARTS = 1  # random restarts of the marginal likelihood's optimizer for the model on all the calibration data
 FOLD_RESTARTS = 0  # and for each fold's model: a restart costs 2-3.5x a fit, and a fold model less well fitted only
@@ -77,6 +76,7 @@ class CoordinateModel:
     length_scales: np.ndarray  # one per joint, in its unit (rad or mm)
     noise: float  # variance of the noise term
     regressor: object = field(repr=False, compare=False)
+    outside: float = OUTSIDE  # the fraction of the prior's standard deviation above which a prediction is outside
 
     def carried(self) -> dict:
         """What reproduces the model's predictions elsewhere (results.json, ``export --format json``): the training
@@ -89,11 +89,31 @@ class CoordinateModel:
         function's, without the noise term) and whether it is inside the calibrated region."""
         mean, std = self.regressor.predict(q, return_std=True)
         latent = np.sqrt(np.maximum(std**2 - self.noise, 0.0))
-        return mean, latent, (latent <= OUTSIDE * np.sqrt(self.constant)) | self.learned_nothing
+        return mean, latent, (latent <= self.outside * np.sqrt(self.constant)) | self.learned_nothing
 
     @property
     def learned_nothing(self) -> bool:
         return self.constant < NEGLIGIBLE**2 * self.noise
+
+
+def regressor_of(q: np.ndarray, y: np.ndarray, constant: float, length_scales: np.ndarray, noise: float):
+    """The Gaussian process C * RBF(l) + White with these hyperparameters, conditioned on (q, y), fitted no more."""
+    from sklearn.gaussian_process import GaussianProcessRegressor
+    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+
+    kernel = ConstantKernel(constant, "fixed") * RBF(length_scales, "fixed") + WhiteKernel(noise, "fixed")
+    return GaussianProcessRegressor(kernel, optimizer=None).fit(q, y)
+
+
+def stored_model(section: ResidualModelSection) -> "ResidualModel":
+    """The model a spec's residual_model section stores (CoordinateModel.carried, as calibrated.yaml writes it)."""
+    coordinates = {}
+    for entry in section.coordinates:
+        q, y, scales = np.array(entry.inputs, dtype=float), np.array(entry.targets, dtype=float), np.array(entry.length_scales, dtype=float)
+        regressor = regressor_of(q, y, entry.signal_variance, scales, entry.noise_variance)
+        coordinates[entry.coordinate] = CoordinateModel(entry.coordinate, q, y, entry.signal_variance, scales, entry.noise_variance, regressor,
+                                                        section.outside_fraction)
+    return ResidualModel(coordinates)
 
 
 @dataclass(frozen=True)

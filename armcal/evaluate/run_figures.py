@@ -10,7 +10,8 @@ from armcal.evaluate.held_out_check import held_out_check
 from armcal.diagnose.loop import Diagnosis
 from armcal.diagnose.calibration import Calibration
 from armcal.diagnose.loop import HOLDS_OUT
-from armcal.diagnose.residual_model import JOINT_UNIT, NOT_CARRIED, OUTSIDE, Figures
+from armcal.diagnose.residual_model import CARRIED, OUTSIDE, Figures
+from armcal.spec.learned import JOINT_UNIT
 from armcal.evaluate.acceptance import acceptance_block
 from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
@@ -257,6 +258,6 @@ def residual_model_block(loaded: LoadedSpec, calibration: Calibration) -> dict |
             for n, m in judgement.model.coordinates.items()
         ],
         "seconds": judgement.seconds,
-        "carried": NOT_CARRIED,
+        "carried": CARRIED,
         "model": [m.carried() for m in judgement.model.coordinates.values()] if judgement.accepted else None,
     }

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from armcal.support.errors import UserError
 from armcal.export.dh_table import dh_table
-from armcal.export.parameters import parameters_json
+from armcal.export.parameters import learned_section, parameters_json
 from armcal.export.ur_calibration import ur_calibration
 from armcal.export.urdf import urdf
 from armcal.kinematics.compiler import compile_robot
@@ -31,17 +31,16 @@ class Export:
 
 
 def learned_model(loaded: LoadedSpec, results: dict | None, fmt: str | None = None) -> str | None:
-    """What to say of the run's learned residual model (diagnose.residual_model): ``export --format json`` carries an
-    accepted one (from results.json), calibrated.yaml, the other formats and compensate do not. None when there is
-    none (or it was not accepted)."""
-    model = (results or {}).get("residual_model")
-    if model is not None and model["accepted"]:
+    """What to say of the learned residual model (diagnose.residual_model): ``export --format json`` carries an
+    accepted one (calibrated.yaml's residual_model section, or results.json's), the other formats do not; a spec that
+    asks for one and holds none carries none. None when there is nothing to say."""
+    if learned_section(loaded, results) is not None:
         if fmt == "json":
             return "the learned residual model that the run accepted is carried: residual_model (training inputs and hyperparameters)"
-        return "the learned residual model that the run accepted is not carried (only the physical model is): see results.json residual_model"
+        return "the learned residual model that the run accepted is not carried (only the physical model is): see calibrated.yaml residual_model"
     if results is None and loaded.spec.diagnose.residual_model == "gp":
-        return ("the spec asks for a learned residual model (diagnose.residual_model: gp); if its run accepted one, it is not carried "
-                "(only the physical model is): give the run's folder")
+        return ("the spec asks for a learned residual model (diagnose.residual_model: gp) and holds none (a run's calibrated.yaml holds "
+                "the one it accepted): only the physical model is carried")
     return None
 
 

@@ -31,6 +31,10 @@ from armcal.kinematics.compiler import KinematicModel, compile_robot
 from armcal.kinematics.mapped import Mapped
 from armcal.kinematics.transforms import pose_from_matrix, xyz_zyx_stacked
 from armcal.spec import LoadedSpec
+from armcal.spec.learned import BASE
+from armcal.diagnose.residual_model import ResidualModel, stored_model
+from armcal.export import learned_model
+from armcal.export.parameters import learned_section
 from armcal.kinematics.params import joint_kind
 from armcal.support.units import factor, to_internal
 
@@ -88,8 +92,9 @@ def _poses(fk: ca.Function):
     return lambda Q, p: mapped(Q, p)[0].transpose(0, 2, 1)
 
 
-def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targets_name: str) -> tuple[str, list[str], list[str]]:
-    """(CSV text of the commands, the targets not reached with why, the effects not compensated)."""
+def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targets_name: str) -> tuple[str, list[str], list[str], str | None]:
+    """(CSV text of the commands, the targets not reached with why, the effects not compensated, what to say of the
+    learned residual model: None where there is none)."""
     spec = loaded.spec
     kinematics = compile_robot(spec.robot)
     joints = list(zip([f"q{i}" for i in range(1, kinematics.dof + 1)], kinematics.joint_types))
@@ -100,19 +105,22 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     error_function, fk, deviation_function = compiled([ik.error_function(kinematics), kinematics.fk, compensated.joint_deviation_function(kinematics)])
     deviation, poses = _deviation(deviation_function, kinematics, compensated), _poses(fk)
     reached, found = _solutions(kinematics, goals, seeds, error_function)
-    command = reached.copy()
-    for _ in range(FIXED_POINT_STEPS):
-        previous, command = command, reached - deviation(command)
-        if np.max(np.abs(command - previous)) < FIXED_POINT_TOLERANCE:
-            break
+    command = _through_joint_effects(reached, deviation)
+    section = learned_section(loaded, results)
+    model = stored_model(section) if section is not None and set(BASE) <= {c.coordinate for c in section.coordinates} else None
+    if model is not None:
+        command, trusted = _with_learned_point(kinematics, model, goals, reached, found, command, deviation, error_function)
     inside = ik.within_limits(kinematics, command)
     error = np.full(len(goals), np.nan)
-    actual = poses(command + deviation(command), kinematics.parameters.nominal)
-    error[found] = np.linalg.norm(actual[found, :3, 3] - goals[found, :3], axis=1)
+    actual = poses(command + deviation(command), kinematics.parameters.nominal)[:, :3, 3]
+    if model is not None:
+        actual = actual + _learned_shift(model, command)[0]
+    error[found] = np.linalg.norm(actual[found] - goals[found, :3], axis=1)
     nominal = _nominal(kinematics, results)
     corrected = poses(command, nominal) if nominal is not None else None
     units = spec.robot.units
     header = ["name", "status", *(j for j, _ in joints), "position_error_mm"] + ([f"corrected_{c}" for c in POSE] if corrected is not None else [])
+    header += ["learned_correction"] if model is not None else []
     rows, unreached = [header], []
     joint_units = [factor(joint_kind(kind), units.of(joint_kind(kind))) for _, kind in joints]
     for i, label in enumerate(labels):
@@ -129,8 +137,70 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
         elif corrected is not None:
             x, y, z, rz, ry, rx = pose_from_matrix(corrected[i])
             row += [f"{v / factor('length', units.length):.12g}" for v in (x, y, z)] + [f"{v / factor('angle', units.angle):.12g}" for v in (rx, ry, rz)]
+        if model is not None:
+            row.append(_learned_status(trusted[i]) if found[i] else "")
         rows.append(row)
-    return csv_text(rows), unreached, left_out
+    untrusted = int(np.sum(found & ~trusted.all(axis=1))) if model is not None else 0
+    return csv_text(rows), unreached, left_out, _learned_note(loaded, results, section, model, int(found.sum()), untrusted)
+
+
+def _through_joint_effects(reached: np.ndarray, deviation) -> np.ndarray:
+    """The command q with q + Delta(q) = q* (``reached``), by the fixed point q <- q* - Delta(q) (module docstring)."""
+    command = reached.copy()
+    for _ in range(FIXED_POINT_STEPS):
+        previous, command = command, reached - deviation(command)
+        if np.max(np.abs(command - previous)) < FIXED_POINT_TOLERANCE:
+            break
+    return command
+
+
+def _learned_shift(model: ResidualModel, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(delta (N, 3), trusted (N, 3)): the learned error of the measured point (measured - predicted, the robot's base
+    frame, mm) at commands ``Q``, zero in a coordinate outside the calibrated region, and where it is inside."""
+    predicted = [model.coordinates[name].predict(Q) for name in BASE]
+    trusted = np.stack([inside for _, _, inside in predicted], axis=1)
+    return np.where(trusted, np.stack([mean for mean, _, _ in predicted], axis=1), 0.0), trusted
+
+
+def _with_learned_point(kinematics: KinematicModel, model: ResidualModel, goals: np.ndarray, reached: np.ndarray, found: np.ndarray,
+                        command: np.ndarray, deviation, error: ca.Function) -> tuple[np.ndarray, np.ndarray]:
+    """(command (N, n), trusted (N, 3)): the command whose calibrated pose plus the learned correction delta(command)
+    is the goal's position, orientation untouched: the fixed point goal - delta(q) -> q* (inverse kinematics from
+    the q* before) -> q (through the joint-side effects). delta varies slowly with q, so each step shrinks the error by
+    about |d delta / dq| / |dp / dq| (a 0.1 mm change per rad against ~500 mm per rad: a few steps). ``found``: the
+    goals solved without it (updated in place where the moved goal has no solution)."""
+    reached = reached.copy()
+    for _ in range(FIXED_POINT_STEPS):
+        shift, _ = _learned_shift(model, command)
+        moved = goals.copy()
+        moved[:, :3] -= shift
+        solved = ik.solve(kinematics, moved[found], reached[found], halvings=ik.SAFE_HALVINGS, error=error)
+        reached[found] = _nearest_turn(kinematics, solved.q, reached[found])
+        found[found] = solved.converged
+        previous, command = command, _through_joint_effects(reached, deviation)
+        if np.max(np.abs(command - previous)[found], initial=0.0) < FIXED_POINT_TOLERANCE:
+            break
+    return command, _learned_shift(model, command)[1]
+
+
+def _learned_status(trusted: np.ndarray) -> str:
+    """A row's learned_correction: applied, or the base coordinates it was not applied in (outside the calibrated region)."""
+    if trusted.all():
+        return "applied"
+    return "not applied, outside the calibrated region: " + " ".join(name for name, ok in zip(BASE, trusted) if not ok)
+
+
+def _learned_note(loaded: LoadedSpec, results: dict | None, section, model: ResidualModel | None, solved: int, untrusted: int) -> str | None:
+    """What the terminal says of the learned residual model (None: there is none)."""
+    if model is not None:
+        return (f"learned correction (residual_model: the error of the measured target point, e.g. the tracker's reflector, in the "
+                f"robot's base frame) applied to each target's position, orientation untouched: {solved - untrusted} of {solved} "
+                f"solved targets in full, {untrusted} with a coordinate outside the calibrated region (not applied there: learned_correction)")
+    if section is not None:
+        return (f"not compensated: the learned residual model learned no point in the robot's base frame (its coordinates: "
+                f"{', '.join(c.coordinate for c in section.coordinates)}), so it cannot correct a Cartesian target: none applied")
+    asked = learned_model(loaded, results)
+    return None if asked is None else f"not compensated: {asked}"
 
 
 def _solutions(kinematics: KinematicModel, goals: np.ndarray, seeds: np.ndarray, error: ca.Function) -> tuple[np.ndarray, np.ndarray]:

@@ -7,6 +7,7 @@ import json
 
 from armcal.kinematics.params import parameter_set
 from armcal.spec import LoadedSpec
+from armcal.spec.learned import ResidualModelSection, section_of
 from armcal.support.units import from_internal
 
 
@@ -31,8 +32,16 @@ def parameters_json(loaded: LoadedSpec, results: dict | None) -> str:
         "parameters": rows,
         "effects": [e.model_dump(mode="json", by_alias=True, exclude_none=True) for e in spec.effects],
     }
-    learned = (results or {}).get("residual_model") or {}
-    if learned.get("model"):  # the run's accepted learned residual model (docs/export.md)
-        document["residual_model"] = {"kind": learned["kind"], "outside_fraction": learned["outside_fraction"],
-                                     "joint_units": learned["joint_units"], "coordinates": learned["model"]}
+    learned = learned_section(loaded, results)
+    if learned is not None:  # the run's accepted learned residual model (docs/export.md)
+        document["residual_model"] = learned.model_dump(mode="json")
     return json.dumps(document, indent=2) + "\n"
+
+
+def learned_section(loaded: LoadedSpec, results: dict | None) -> ResidualModelSection | None:
+    """The accepted learned residual model a calibration carries: its calibrated spec's residual_model section, else
+    (a run written before calibrated.yaml stored it) its results.json's."""
+    if loaded.spec.residual_model is not None:
+        return loaded.spec.residual_model
+    section = section_of((results or {}).get("residual_model"))
+    return None if section is None else ResidualModelSection.model_validate(section)

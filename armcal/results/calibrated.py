@@ -24,6 +24,7 @@ from armcal import __version__
 from armcal.effects.library import to_spec_dict
 from armcal.kinematics.params import parameter_set
 from armcal.spec.document import Spec
+from armcal.spec.learned import section_of
 from armcal.spec.locations import yaml_path
 from armcal.support.units import from_internal, snapped
 
@@ -70,6 +71,31 @@ def _drop_earlier_std(root: CommentedMap, spec: Spec, identified: set[str]) -> N
             node.pop("std", None)
 
 
+def _learned_section(learned: dict) -> CommentedMap:
+    """The residual_model section, a row of joint values and the short lists on one line each, at full precision (the
+    round trip reproduces the run's predictions); inputs that repeat an earlier coordinate's (a point's base_x, base_y,
+    base_z: the same readings) are written once, and aliased (*inputs): the section stays within a spec's size limit."""
+
+    def flow(values: list) -> CommentedSeq:
+        row = CommentedSeq(values)
+        row.fa.set_flow_style()
+        return row
+
+    written: list[tuple[list, CommentedSeq]] = []
+    coordinates = CommentedSeq()
+    for c in learned["coordinates"]:
+        inputs = next((seq for rows, seq in written if rows == c["inputs"]), None)
+        if inputs is None:
+            inputs = CommentedSeq(flow(row) for row in c["inputs"])
+            inputs.yaml_set_anchor(f"inputs_{c['coordinate']}", always_dump=True)
+            written.append((c["inputs"], inputs))
+        coordinates.append(CommentedMap([("coordinate", c["coordinate"]), ("inputs", inputs), ("targets", flow(c["targets"])),
+                                         ("signal_variance", c["signal_variance"]), ("length_scales", flow(c["length_scales"])),
+                                         ("noise_variance", c["noise_variance"])]))
+    return CommentedMap([("kind", learned["kind"]), ("outside_fraction", learned["outside_fraction"]), ("joint_units", flow(learned["joint_units"])),
+                         ("coordinates", coordinates)])
+
+
 def _unshared(mapping: CommentedMap) -> CommentedMap:
     """A copy of an anchored mapping, in the same style, that no alias refers to."""
     copy = CommentedMap(mapping.items())
@@ -87,10 +113,12 @@ def calibrated_yaml(
     note: str,
     added_effects: list = (),
     noise: dict[str, tuple[float, str]] | None = None,
+    learned: dict | None = None,
 ) -> str:
     """The spec text with ``identified`` {name: (internal value, kind, held, std)} written in, the effects
-    the diagnosis added [(EffectSpec, {field: (internal value, kind)})] appended to ``effects:``, and the noise
-    estimated from the data {device field: (internal sigma, kind)} written as the device's sigmas (no longer estimated)."""
+    the diagnosis added [(EffectSpec, {field: (internal value, kind)})] appended to ``effects:``, the noise
+    estimated from the data {device field: (internal sigma, kind)} written as the device's sigmas (no longer estimated),
+    and the learned residual model the run accepted as ``residual_model`` (one the spec held is the run's no more: dropped)."""
     yaml = YAML(typ="rt")
     yaml.preserve_quotes = True
     yaml.width = 4096  # keep flow-style rows on one line as the user wrote them
@@ -110,6 +138,9 @@ def calibrated_yaml(
         if set(noise) == set(spec.device.estimated_fields()):  # every estimated field now holds its estimate
             for key in ("estimate_noise", "noise_groups"):
                 device.pop(key, None)
+    root.pop("residual_model", None)
+    if learned is not None:
+        root["residual_model"] = _learned_section(learned)
     if spec.data is not None and "data" in root:
         for key in ("calibration", "validation"):
             if root["data"].get(key):
@@ -156,10 +187,12 @@ def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
         held += [entry.name] if redundant else []
     new_effects = [(e, {p.name.rsplit(".", 1)[1]: (float(theta[index(p.name)]), p.kind) for p in e.parameters()}) for e in added]
     noise = _plain_sigmas(loaded.spec, calibrated.noise.spec_values()) if calibrated.noise else None
+    learned = section_of(results.residual_model.model_dump() if results.residual_model else None)
     note = (
         f"Calibrated by armcal {__version__} on {results.created} from {loaded.path.name} "
         f"(sha256 {loaded.sha256[:12]}), run {results.run_id}, status {results.status}."
         + (f"\nHeld (vary: false) as the fit held them, not identifiable at the design point: {', '.join(held)}." if held else "")
         + (f"\nThe device's {', '.join(noise)} estimated from the calibration data (results.json: noise)." if noise else "")
+        + ("\nresidual_model: the learned residual model the run accepted (read by export and compensate; a run learns its own)." if learned else "")
     )
-    return calibrated_yaml(loaded.text, loaded.spec, identified, loaded.path, out_dir, note, new_effects, noise)
+    return calibrated_yaml(loaded.text, loaded.spec, identified, loaded.path, out_dir, note, new_effects, noise, learned)

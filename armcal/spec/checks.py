@@ -13,6 +13,8 @@ from armcal.support.errors import either, shown_value, with_article
 from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
 from armcal.spec_parts.robot import SixParameterRobot
+from armcal.kinematics.params import joint_kind
+from armcal.spec.learned import JOINT_UNIT
 from armcal.spec.effect_vocabulary import JointBending, JointCompliance, JointCoupling
 
 Loc = tuple[str | int, ...]
@@ -21,7 +23,7 @@ Problem = tuple[Loc, str]
 
 def check_spec(spec: Spec) -> list[Problem]:
     """All cross-reference problems of a spec that validated field by field."""
-    return [*_robot(spec), *_device(spec), *_procedures(spec), *_data(spec), *_report(spec), *_effects(spec)]
+    return [*_robot(spec), *_device(spec), *_procedures(spec), *_data(spec), *_report(spec), *_effects(spec), *_residual_model(spec)]
 
 
 def _robot(spec: Spec) -> Iterator[Problem]:
@@ -215,3 +217,20 @@ def _bending(spec: Spec, effect: JointBending, loc: Loc, simulated: bool) -> Ite
         link = int(key[2:])
         if not effect.joint <= link <= spec.robot.dof:
             yield (*loc, key), f"link {link} is not beyond joint {effect.joint}: the products name links {effect.joint}..{spec.robot.dof}"
+
+
+def _residual_model(spec: Spec) -> Iterator[Problem]:
+    """A stored learned model is of this robot: a value per joint in every row and length scale, its joints' units."""
+    model = spec.residual_model
+    if model is None:
+        return
+    units = [JOINT_UNIT[joint_kind(joint.type)] for joint in spec.robot.joints]
+    if model.joint_units != units:
+        yield ("residual_model", "joint_units"), f"the robot's joints are in {units}, not {model.joint_units}: a model of another robot"
+    dof = spec.robot.dof
+    for i, coordinate in enumerate(model.coordinates):
+        if len(coordinate.length_scales) != dof:
+            yield ("residual_model", "coordinates", i, "length_scales"), f"{len(coordinate.length_scales)} length scales for {dof} joints: one per joint"
+        wrong = next((r for r, row in enumerate(coordinate.inputs) if len(row) != dof), None)
+        if wrong is not None:
+            yield ("residual_model", "coordinates", i, "inputs", wrong), f"{len(coordinate.inputs[wrong])} joint values for {dof} joints: one per joint"

@@ -11,6 +11,7 @@ from armcal.spec.device import DEVICE_TYPES, Device
 from armcal.spec.procedure import Procedure
 from armcal.spec_parts.robot import Robot
 from armcal.spec.effect_vocabulary import Effect
+from armcal.spec.learned import ResidualModelSection
 from armcal.spec.sections import STANDS_FOR, Acceptance, Data, Diagnose, Fit, Placeholders, Report, Simulate
 
 
@@ -29,5 +30,9 @@ class Spec(SpecModel):
     diagnose: Diagnose = Diagnose()
     report: Report = Report()
     acceptance: Acceptance | None = Field(None, description="a tolerance on a held-out figure: the certificate states pass or fail")
+    residual_model: ResidualModelSection | None = Field(
+        None, description="a learned residual model a run accepted (armcal run writes it into calibrated.yaml): export --format json and "
+        "compensate carry it; a run learns its own and does not read it (docs/method.md)"
+    )
     placeholders: Placeholders = Field({}, description=f"the stand-ins armcal new and import-urdf wrote ({', '.join(STANDS_FOR)}), each with the "
                                        "fingerprint of its value as written: while the value is unchanged, validate warns and the certificate states it not given")

@@ -37,17 +37,26 @@ def _with_tool_at_smr(path, out, drop_effects=False):
     return load_spec(out)
 
 
-def _commands(loaded, registration, goals, orientations):
-    """armcal compensate: commands (rad) for the reflector at ``goals`` (tracker frame, mm), tool axes as given."""
-    lines = ["name,x,y,z,rx,ry,rz"]
+def _commands(loaded, registration, goals, orientations, seeds=None):
+    """armcal compensate: commands (rad) for the reflector at ``goals`` (tracker frame, mm), tool axes as given, seeds
+    (rad) if given; with the rows of its CSV and what it says of a learned residual model."""
+    lines = ["name,x,y,z,rx,ry,rz" + ("".join(f",q{j}" for j in range(1, 7)) if seeds is not None else "")]
     for i, (p, R) in enumerate(zip(goals, orientations)):
         T = np.eye(4)
         T[:3, :3], T[:3, 3] = R, (np.linalg.inv(registration) @ np.append(p, 1.0))[:3]
         x, y, z, rz, ry, rx = pose_from_matrix(T)
-        lines.append(",".join([f"t{i}", *(repr(float(v)) for v in (x, y, z, *np.rad2deg([rx, ry, rz])))]))
-    text, unreached, _ = compensate(loaded, None, "\n".join(lines) + "\n", "targets")
+        seed = np.rad2deg(seeds[i]) if seeds is not None else []
+        lines.append(",".join([f"t{i}", *(repr(float(v)) for v in (x, y, z, *np.rad2deg([rx, ry, rz]), *seed))]))
+    text, unreached, _, learned = compensate(loaded, None, "\n".join(lines) + "\n", "targets")
     assert not unreached, unreached
-    return np.deg2rad([[float(r[f"q{j}"]) for j in range(1, 7)] for r in csv.DictReader(text.splitlines())])
+    rows = list(csv.DictReader(text.splitlines()))
+    return np.deg2rad([[float(r[f"q{j}"]) for j in range(1, 7)] for r in rows]), rows, learned
+
+
+def registration_of(loaded) -> np.ndarray:
+    """The tracker's registration (robot base frame -> tracker frame, 4 x 4) a calibrated spec holds."""
+    device = loaded.spec.device.robot_base
+    return np.array(xyz_zyx(*(getattr(device, c).value for c in ("x", "y", "z", "rz", "ry", "rx"))), dtype=float)
 
 
 def test_compensated_commands_reach_the_targets_on_the_true_robot(tmp_path):
@@ -60,13 +69,12 @@ def test_compensated_commands_reach_the_targets_on_the_true_robot(tmp_path):
     Q = np.deg2rad(sample_configurations(ROBOT, TARGETS, np.random.default_rng(70)))
     goals = true_reflector(Q)  # where the true robot's reflector can be: the targets, tracker frame
     calibrated = _with_tool_at_smr(tmp_path / "out" / "calibrated.yaml", tmp_path / "calibrated_tool.yaml")
-    device = calibrated.spec.device.robot_base
-    registration = np.array(xyz_zyx(*(getattr(device, c).value for c in ("x", "y", "z", "rz", "ry", "rx"))), dtype=float)
+    registration = registration_of(calibrated)
     axes = compile_robot(calibrated.spec.robot).tool_poses(Q)[:, :3, :3]  # reachable tool axes
     miss = lambda commands: float(np.sqrt(np.mean((true_reflector(commands) - goals) ** 2)))  # noqa: E731  mm per coordinate
 
-    compensated = miss(_commands(calibrated, registration, goals, axes))
-    geometry_only = miss(_commands(_with_tool_at_smr(tmp_path / "out" / "calibrated.yaml", tmp_path / "geometry.yaml", drop_effects=True), registration, goals, axes))
+    compensated = miss(_commands(calibrated, registration, goals, axes)[0])
+    geometry_only = miss(_commands(_with_tool_at_smr(tmp_path / "out" / "calibrated.yaml", tmp_path / "geometry.yaml", drop_effects=True), registration, goals, axes)[0])
     nominal_spec = _with_tool_at_smr(info["spec"], tmp_path / "nominal_tool.yaml")
     with (info["spec"].parent / "calibration.csv").open() as stream:
         rows = list(csv.DictReader(stream))
@@ -74,7 +82,7 @@ def test_compensated_commands_reach_the_targets_on_the_true_robot(tmp_path):
     measured = np.array([[float(r[c]) for c in "xyz"] for r in rows])
     nominal_chain = compile_robot(nominal_spec.spec.robot)
     nominal_registration = kabsch(nominal_chain.tool_poses(measured_Q)[:, :3, 3], measured)
-    nominal = miss(_commands(nominal_spec, nominal_registration, goals, axes))
+    nominal = miss(_commands(nominal_spec, nominal_registration, goals, axes)[0])
 
     assert compensated < TRACKER["noise"]  # mm per coordinate: within the noise floor
     assert nominal / compensated > results.improvement_factor.validation  # whose "after" still holds the noise

@@ -78,7 +78,7 @@ def test_a_bom_and_crlf_keep_the_names_and_a_seed_in_the_limits_reaches(tmp_path
     assert [r["name"] for r in written] == ["seeded"] and written[0]["status"] == "ok"
     np.testing.assert_allclose([float(written[0][f"q{i}"]) for i in range(1, 7)], Q, atol=1e-8)
 
-    text, unreached, _ = compensate(loaded, None, "\ufeffname,x,y,z,rx,ry,rz\r\n" + f"free,{','.join(pose)}\r\n", "targets")
+    text, unreached, _, _ = compensate(loaded, None, "\ufeffname,x,y,z,rx,ry,rz\r\n" + f"free,{','.join(pose)}\r\n", "targets")
     assert not unreached and next(csv.DictReader(text.splitlines()))["name"] == "free"
 
     targets.write_text("\r\n".join([rows[0], f"outside,{','.join(pose)},{SEED.replace('153', '230')}"]) + "\r\n")

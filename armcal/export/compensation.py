@@ -197,8 +197,8 @@ def _learned_note(loaded: LoadedSpec, results: dict | None, section, model: Resi
                 f"robot's base frame) applied to each target's position, orientation untouched: {solved - untrusted} of {solved} "
                 f"solved targets in full, {untrusted} with a coordinate outside the calibrated region (not applied there: learned_correction)")
     if section is not None:
-        return (f"not compensated: the learned residual model learned no point in the robot's base frame (its coordinates: "
-                f"{', '.join(c.coordinate for c in section.coordinates)}), so it cannot correct a Cartesian target: none applied")
+        return (f"not compensated: the learned residual model holds no point's error in the robot's base frame ({', '.join(BASE)}; it "
+                f"holds {', '.join(c.coordinate for c in section.coordinates)}), so it cannot correct a Cartesian target: none applied")
     asked = learned_model(loaded, results)
     return None if asked is None else f"not compensated: {asked}"
 

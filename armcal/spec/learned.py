@@ -7,19 +7,29 @@ rows' widths, the length scales and joint_units are checked against the robot's 
 
 from __future__ import annotations
 
+import re
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import AfterValidator, Field, model_validator
 
 from armcal.spec_parts.base import Number, SpecModel
+from armcal.support.errors import shown_value
 
 JOINT_UNIT = {"angle": "rad", "length": "mm"}  # the unit of a joint's value (params.joint_kind) in the model's inputs
 BASE = ("base_x", "base_y", "base_z")  # a point's learned coordinates: its error in the robot's base frame
 MAX_TRAINING = 800  # readings per coordinate that train a model at most (a spread subset above)
 MAX_COORDINATES = 16  # a point's three base coordinates, a tracker's three angles, a sonic digitizer's microphones
 MAX_JOINTS = 64
-COORDINATE = r"^(base_[xyz]|rx|ry|rz|length|contact|d[xyz]|azimuth|elevation|s_[A-Za-z0-9_]{1,64})$"  # a point's base
-# coordinates, or a channel read otherwise (devices/*.py channels; a point's x, y, z are learned in the base frame)
+CHANNELS = ("rx", "ry", "rz", "length", "contact", "dx", "dy", "dz", "azimuth", "elevation")  # read as coordinates of their own
+# (devices/*.py channels; a point's x, y, z are learned in the base frame), and a sonic digitizer's s_<microphone>
+MICROPHONE = re.compile(r"s_[A-Za-z0-9_]{1,64}")
+
+
+def _coordinate(name: str) -> str:
+    if name in BASE or name in CHANNELS or MICROPHONE.fullmatch(name):
+        return name
+    raise ValueError(f"{shown_value(name)} is not a learned coordinate: {', '.join(BASE)} (a point's error in the robot's base frame), "
+                     f"{', '.join(CHANNELS)} or s_<microphone>")
 
 Positive = Annotated[Number, Field(gt=0.0)]
 
@@ -28,7 +38,7 @@ class LearnedCoordinate(SpecModel):
     """One coordinate's Gaussian process, C * RBF(length_scales) + White, as the run fitted it: enough to reproduce
     its predictions without fitting again."""
 
-    coordinate: str = Field(pattern=COORDINATE, description="base_x, base_y, base_z (a point's error in the robot's base frame) or a channel as read")
+    coordinate: Annotated[str, AfterValidator(_coordinate)] = Field(description="base_x, base_y, base_z (a point's error in the robot's base frame) or a channel as read")
     inputs: list[Annotated[list[Number], Field(max_length=MAX_JOINTS)]] = Field(
         min_length=1, max_length=MAX_TRAINING, description="joint values of the training readings, one row per reading (joint_units)"
     )
@@ -46,7 +56,7 @@ class LearnedCoordinate(SpecModel):
 
 class ResidualModelSection(SpecModel):
     """A learned residual model a run accepted (written by armcal run into calibrated.yaml; read by export and
-    compensate, never by a run, which learns its own)."""
+    compensate, never by a run, which learns its own). Its numbers are in mm and rad whatever robot.units says."""
 
     kind: Literal["gp"] = Field(description="gp: Gaussian processes on the joint values")
     outside_fraction: Annotated[Number, Field(gt=0.0, le=1.0)] = Field(

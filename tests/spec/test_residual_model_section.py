@@ -1,0 +1,78 @@
+"""The spec's residual_model section (a learned model calibrated.yaml stores, spec/learned.py): every mistake in it,
+hand-made or of another robot, is one located plain message and exit 1; compensate says what it cannot carry."""
+
+import subprocess
+import sys
+from types import SimpleNamespace
+
+import pytest
+from conftest import ROOT
+
+import independent_sim as sim
+from armcal.commands.run import residual_model_note
+from armcal.export.compensation import compensate
+from armcal.results.calibrated import calibrated_yaml
+from armcal.spec import load_spec
+from armcal.support.errors import SpecError
+
+ROW = "[0.1, 0.2, 0.3, 0.4, 0.5, 0.6]"
+TARGETS = "name,x,y,z,rx,ry,rz\nt1,600,150,300,0,90,0\n"
+
+
+def _section(inputs=f"[{ROW}, {ROW}]", targets="[0.01, 0.02]", coordinate="base_z", noise="0.0004", scales="[1, 1, 1, 1, 1, 1]",
+             units="[rad, rad, rad, rad, rad, rad]") -> str:
+    return ("residual_model:\n  kind: gp\n  outside_fraction: 0.5\n"
+            f"  joint_units: {units}\n  coordinates:\n  - {{coordinate: {coordinate}, inputs: {inputs}, targets: {targets}, "
+            f"signal_variance: 0.01, length_scales: {scales}, noise_variance: {noise}}}\n")
+
+
+def _spec(tmp_path, section: str):
+    path = tmp_path / "spec.yaml"
+    path.write_text(sim.spec_text("puma560", "tracker") + section)
+    return path
+
+
+@pytest.mark.parametrize("section, field, message", [
+    (_section(inputs="[" + ", ".join([ROW] * 801) + "]"),
+     "residual_model.coordinates[0].inputs", "Expected at most 800 entries, got 801."),
+    (_section(targets="[.nan, 0.02]"), "residual_model.coordinates[0].targets[0]", "Expected a finite number, got nan."),
+    (_section(inputs=f"[[.inf, 0, 0, 0, 0, 0], {ROW}]"), "residual_model.coordinates[0].inputs[0][0]", "Expected a finite number, got inf."),
+    (_section(inputs=f"[{ROW}, [0.1, 0.2]]"), "residual_model.coordinates[0].inputs[1]", "2 joint values for 6 joints: one per joint"),
+    (_section(inputs="[[" + ", ".join(["0"] * 65) + "], " + ROW + "]"), "residual_model.coordinates[0].inputs[0]", "Expected at most 64 entries, got 65."),
+    (_section(coordinate="tip_z"), "residual_model.coordinates[0].coordinate", "'tip_z' is not a learned coordinate"),
+    (_section(noise="-0.0004"), "residual_model.coordinates[0].noise_variance", "Must be above 0.0, got -0.0004."),
+    (_section(scales="[1, 1]"), "residual_model.coordinates[0].length_scales", "2 length scales for 6 joints: one per joint"),
+    (_section(targets="[0.01]"), "residual_model.coordinates[0]", "2 rows of inputs and 1 targets: one target a row."),
+    (_section(units="[rad, mm, rad, rad, rad, rad]"), "residual_model.joint_units", "a model of another robot"),
+])
+def test_a_mistake_in_the_section_is_one_located_message(tmp_path, section, field, message):
+    with pytest.raises(SpecError) as caught:
+        load_spec(_spec(tmp_path, section))
+    (issue,) = caught.value.issues
+    assert issue.field == field and message in issue.message and issue.line >= 27, issue
+
+
+def test_validate_names_file_line_and_field_and_exits_1(tmp_path):
+    path = _spec(tmp_path, _section(targets="[.nan, 0.02]"))
+    shown = subprocess.run([sys.executable, "-m", "armcal", "validate", str(path)], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert shown.returncode == 1 and "Traceback" not in shown.stderr + shown.stdout
+    assert f"{path}:31:" in shown.stderr and "residual_model.coordinates[0].targets[0]: Expected a finite number, got nan." in shown.stderr
+
+
+def test_compensate_says_a_model_without_a_point_cannot_correct_a_target(tmp_path):
+    """A ball-bar's length (or a theodolite's angles) is no point in the base frame: none is applied, and it says so."""
+    loaded = load_spec(_spec(tmp_path, _section(coordinate="length")))
+    text, unreached, _, note = compensate(loaded, None, TARGETS, "targets")
+    assert not unreached and "learned_correction" not in text.splitlines()[0]
+    assert note.startswith("not compensated: the learned residual model holds no point's error in the robot's base frame") and "holds length" in note
+
+
+def test_a_run_says_a_stored_model_is_not_used_and_writes_none_of_it(tmp_path):
+    """A calibrated.yaml run again: its stored model is not the new run's (never mixed with a new physical fit): the
+    run says so, and the new calibrated.yaml keeps only a model the new run accepts (here none)."""
+    path = _spec(tmp_path, _section())
+    loaded = load_spec(path)
+    (note,) = residual_model_note(loaded.spec, SimpleNamespace(residual=None))
+    assert note.startswith("the spec's residual_model (an earlier run's learned model) is not used")
+    written = calibrated_yaml(loaded.text, loaded.spec, {}, path, tmp_path, "a note")
+    assert "residual_model" not in written

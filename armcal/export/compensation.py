@@ -108,6 +108,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     command = _through_joint_effects(reached, deviation)
     section = learned_section(loaded, results)
     model = stored_model(section) if section is not None and set(BASE) <= {c.coordinate for c in section.coordinates} else None
+    solved = found.copy()  # without the learned correction
     if model is not None:
         command, trusted = _with_learned_point(kinematics, model, goals, reached, found, command, deviation, error_function)
     inside = ik.within_limits(kinematics, command)
@@ -126,7 +127,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     for i, label in enumerate(labels):
         status = "ok" if found[i] and inside[i] and error[i] < REACHED else (
             "unreachable: outside the joint limits" if found[i] and not inside[i] else
-            "unreachable: no inverse-kinematics solution" if not found[i] else f"unreachable: {error[i]:.3g} mm off")
+            "unreachable: no inverse-kinematics solution" + (" with the learned correction" if solved[i] else "") if not found[i] else f"unreachable: {error[i]:.3g} mm off")
         if status != "ok":
             unreached.append(f"{shown_text(label, f'row {i + 1}: a name')} ({status[13:]})")
         row = [label, status]
@@ -170,7 +171,7 @@ def _with_learned_point(kinematics: KinematicModel, model: ResidualModel, goals:
     about |d delta / dq| / |dp / dq| (a 0.1 mm change per rad against ~500 mm per rad: a few steps). ``found``: the
     goals solved without it (updated in place where the moved goal has no solution)."""
     reached = reached.copy()
-    for _ in range(FIXED_POINT_STEPS):
+    for _ in range(FIXED_POINT_STEPS if found.any() else 0):
         shift, _ = _learned_shift(model, command)
         moved = goals.copy()
         moved[:, :3] -= shift
@@ -178,7 +179,7 @@ def _with_learned_point(kinematics: KinematicModel, model: ResidualModel, goals:
         reached[found] = _nearest_turn(kinematics, solved.q, reached[found])
         found[found] = solved.converged
         previous, command = command, _through_joint_effects(reached, deviation)
-        if np.max(np.abs(command - previous)[found], initial=0.0) < FIXED_POINT_TOLERANCE:
+        if not found.any() or np.max(np.abs(command - previous)[found]) < FIXED_POINT_TOLERANCE:
             break
     return command, _learned_shift(model, command)[1]
 

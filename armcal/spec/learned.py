@@ -31,7 +31,12 @@ def _coordinate(name: str) -> str:
     raise ValueError(f"{shown_value(name)} is not a learned coordinate: {', '.join(BASE)} (a point's error in the robot's base frame), "
                      f"{', '.join(CHANNELS)} or s_<microphone>")
 
-Positive = Annotated[Number, Field(gt=0.0)]
+LARGEST = 1e6  # rad or mm: no joint value or correction is larger (a kilometre, 160,000 turns)
+Variance = Annotated[Number, Field(gt=0.0, le=LARGEST**2)]
+Value = Annotated[Number, Field(ge=-LARGEST, le=LARGEST)]
+NOISE_RATIO = 1e-10  # the noise variance is at least this fraction of the signal's: the kernel matrix stays positive
+# definite in double precision whatever the inputs (a fitted one is far above it: its noise term is at least (0.5 sigma)^2,
+# its signal variance at most 1e3 times its targets' variance)
 
 
 class LearnedCoordinate(SpecModel):
@@ -39,18 +44,21 @@ class LearnedCoordinate(SpecModel):
     its predictions without fitting again."""
 
     coordinate: Annotated[str, AfterValidator(_coordinate)] = Field(description="base_x, base_y, base_z (a point's error in the robot's base frame) or a channel as read")
-    inputs: list[Annotated[list[Number], Field(max_length=MAX_JOINTS)]] = Field(
+    inputs: list[Annotated[list[Value], Field(max_length=MAX_JOINTS)]] = Field(
         min_length=1, max_length=MAX_TRAINING, description="joint values of the training readings, one row per reading (joint_units)"
     )
-    targets: list[Number] = Field(min_length=1, max_length=MAX_TRAINING, description="measured - predicted by the physical model, one per row (mm, or rad for an angle)")
-    signal_variance: Positive = Field(description="C: the learned function's prior variance")
-    length_scales: list[Positive] = Field(max_length=MAX_JOINTS, description="one per joint (joint_units)")
-    noise_variance: Positive = Field(description="the noise term's variance")
+    targets: list[Value] = Field(min_length=1, max_length=MAX_TRAINING, description="measured - predicted by the physical model, one per row (mm, or rad for an angle)")
+    signal_variance: Variance = Field(description="C: the learned function's prior variance")
+    length_scales: list[Annotated[Number, Field(ge=1e-6, le=LARGEST)]] = Field(max_length=MAX_JOINTS, description="one per joint (joint_units)")
+    noise_variance: Variance = Field(description="the noise term's variance")
 
     @model_validator(mode="after")
     def _one_target_a_row(self) -> "LearnedCoordinate":
         if len(self.targets) != len(self.inputs):
             raise ValueError(f"{len(self.inputs)} rows of inputs and {len(self.targets)} targets: one target a row")
+        if self.noise_variance < NOISE_RATIO * self.signal_variance:
+            raise ValueError(f"the noise_variance ({self.noise_variance:g}) is below {NOISE_RATIO:g} of the signal_variance ({self.signal_variance:g}): "
+                             "no fitted model's is, and its Gaussian process could not be computed")
         return self
 
 

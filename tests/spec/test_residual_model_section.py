@@ -20,10 +20,11 @@ TARGETS = "name,x,y,z,rx,ry,rz\nt1,600,150,300,0,90,0\n"
 
 
 def _section(inputs=f"[{ROW}, {ROW}]", targets="[0.01, 0.02]", coordinate="base_z", noise="0.0004", scales="[1, 1, 1, 1, 1, 1]",
-             units="[rad, rad, rad, rad, rad, rad]") -> str:
-    return ("residual_model:\n  kind: gp\n  outside_fraction: 0.5\n"
-            f"  joint_units: {units}\n  coordinates:\n  - {{coordinate: {coordinate}, inputs: {inputs}, targets: {targets}, "
-            f"signal_variance: 0.01, length_scales: {scales}, noise_variance: {noise}}}\n")
+             units="[rad, rad, rad, rad, rad, rad]", signal="0.01") -> str:
+    """A residual_model section, one entry per coordinate (names separated by spaces) with the same numbers."""
+    return ("residual_model:\n  kind: gp\n  outside_fraction: 0.5\n" f"  joint_units: {units}\n  coordinates:\n" + "".join(
+        f"  - {{coordinate: {name}, inputs: {inputs}, targets: {targets}, signal_variance: {signal}, length_scales: {scales}, "
+        f"noise_variance: {noise}}}\n" for name in coordinate.split()))
 
 
 def _spec(tmp_path, section: str):
@@ -44,6 +45,9 @@ def _spec(tmp_path, section: str):
     (_section(scales="[1, 1]"), "residual_model.coordinates[0].length_scales", "2 length scales for 6 joints: one per joint"),
     (_section(targets="[0.01]"), "residual_model.coordinates[0]", "2 rows of inputs and 1 targets: one target a row."),
     (_section(units="[rad, mm, rad, rad, rad, rad]"), "residual_model.joint_units", "a model of another robot"),
+    (_section(noise="1e-13"), "residual_model.coordinates[0]", "The noise_variance (1e-13) is below 1e-10 of the signal_variance (0.01)"),
+    (_section(targets="[1e7, 0]"), "residual_model.coordinates[0].targets[0]", "Must be at most 1000000.0, got 10000000.0."),
+    (_section(coordinate="base_x base_x"), "residual_model", "A coordinate is given twice (base_x): one model each."),
 ])
 def test_a_mistake_in_the_section_is_one_located_message(tmp_path, section, field, message):
     with pytest.raises(SpecError) as caught:
@@ -76,3 +80,13 @@ def test_a_run_says_a_stored_model_is_not_used_and_writes_none_of_it(tmp_path):
     assert note.startswith("the spec's residual_model (an earlier run's learned model) is not used")
     written = calibrated_yaml(loaded.text, loaded.spec, {}, path, tmp_path, "a note")
     assert "residual_model" not in written
+
+
+def test_a_correction_that_moves_a_target_out_of_reach_says_so(tmp_path):
+    """A hand-edited model that moves every target by a metre (trusted everywhere: length scales of 1000 rad): the
+    rows are unreachable, and say it is with the learned correction (without it they are reached)."""
+    loaded = load_spec(_spec(tmp_path, _section(coordinate="base_x base_y base_z", inputs=f"[{ROW}]", targets="[1000]", signal="1e6",
+                                                 scales="[1000, 1000, 1000, 1000, 1000, 1000]")))
+    text, unreached, _, note = compensate(loaded, None, TARGETS, "targets")
+    assert unreached == ["t1 (no inverse-kinematics solution with the learned correction)"], unreached
+    assert "0 of 0 solved targets in full" in note

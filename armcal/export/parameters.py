@@ -5,8 +5,12 @@ from __future__ import annotations
 
 import json
 
+from pydantic import ValidationError
+
 from armcal.kinematics.params import parameter_set
 from armcal.spec import LoadedSpec
+from armcal.spec.checks import residual_model_problems
+from armcal.support.errors import UserError
 from armcal.spec.learned import ResidualModelSection, section_of
 from armcal.support.units import from_internal
 
@@ -44,4 +48,14 @@ def learned_section(loaded: LoadedSpec, results: dict | None) -> ResidualModelSe
     if loaded.spec.residual_model is not None:
         return loaded.spec.residual_model
     section = section_of((results or {}).get("residual_model"))
-    return None if section is None else ResidualModelSection.model_validate(section)
+    if section is None:
+        return None
+    try:
+        model = ResidualModelSection.model_validate(section)
+        problems = list(residual_model_problems(model, loaded.spec.robot))
+    except ValidationError as exc:
+        problems = [(("residual_model", *error["loc"]), error["msg"]) for error in exc.errors()]
+    if problems:
+        loc, message = problems[0]
+        raise UserError(f"the run's results.json: {'.'.join(map(str, loc))}: {message} (not a model of this calibrated spec's robot)")
+    return model

@@ -220,17 +220,19 @@ def _bending(spec: Spec, effect: JointBending, loc: Loc, simulated: bool) -> Ite
 
 
 def _residual_model(spec: Spec) -> Iterator[Problem]:
-    """A stored learned model is of this robot: a value per joint in every row and length scale, its joints' units."""
-    model = spec.residual_model
-    if model is None:
-        return
-    units = [JOINT_UNIT[joint_kind(joint.type)] for joint in spec.robot.joints]
+    if spec.residual_model is not None:
+        yield from residual_model_problems(spec.residual_model, spec.robot)
+
+
+def residual_model_problems(model, robot) -> Iterator[Problem]:
+    """A stored learned model (spec/learned.py) is of this robot: a value per joint in every row and length scale,
+    its joints' units."""
+    units = [JOINT_UNIT[joint_kind(joint.type)] for joint in robot.joints]
     if model.joint_units != units:
         yield ("residual_model", "joint_units"), f"the robot's joints are in {units}, not {model.joint_units}: a model of another robot"
-    dof = spec.robot.dof
     for i, coordinate in enumerate(model.coordinates):
-        if len(coordinate.length_scales) != dof:
-            yield ("residual_model", "coordinates", i, "length_scales"), f"{len(coordinate.length_scales)} length scales for {dof} joints: one per joint"
-        wrong = next((r for r, row in enumerate(coordinate.inputs) if len(row) != dof), None)
+        if len(coordinate.length_scales) != robot.dof:
+            yield ("residual_model", "coordinates", i, "length_scales"), f"{len(coordinate.length_scales)} length scales for {robot.dof} joints: one per joint"
+        wrong = next((r for r, row in enumerate(coordinate.inputs) if len(row) != robot.dof), None)
         if wrong is not None:
-            yield ("residual_model", "coordinates", i, "inputs", wrong), f"{len(coordinate.inputs[wrong])} joint values for {dof} joints: one per joint"
+            yield ("residual_model", "coordinates", i, "inputs", wrong), f"{len(coordinate.inputs[wrong])} joint values for {robot.dof} joints: one per joint"

@@ -165,6 +165,29 @@ def test_calibrated_yaml_stores_the_model_and_its_predictions_come_back_exactly(
     assert [c["coordinate"] for c in json.loads((tmp_path / "c.json").read_text())["residual_model"]["coordinates"]] == list(BASE)
 
 
+def test_a_run_folder_without_the_section_carries_results_jsons_model_and_refuses_another_robots(bent, tmp_path):
+    """A run's folder written before calibrated.yaml stored the model: compensate takes results.json's; edited to
+    another robot's (five joint values a row) it is one plain error, exit 1."""
+    outcome, *_ = bent
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "calibrated.yaml").write_text((outcome.out_dir / "calibrated.yaml").read_text().split("\nresidual_model:", 1)[0] + "\n")
+    written = json.loads((outcome.out_dir / "results.json").read_text())
+    (old / "results.json").write_text(json.dumps(written))
+    targets = tmp_path / "targets.csv"
+    targets.write_text("name,x,y,z,rx,ry,rz\nt1,600,150,300,0,90,0\n")
+    armcal = lambda: subprocess.run([sys.executable, "-m", "armcal", "compensate", str(old), "--targets", str(targets), "--out", str(tmp_path / "c.csv"),  # noqa: E731
+                                     "--force"], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    shown = armcal()
+    assert shown.returncode == 0 and "1 of 1 solved targets in full" in shown.stdout, shown.stdout + shown.stderr
+    for coordinate in written["residual_model"]["model"]:
+        coordinate["inputs"] = [row[:5] for row in coordinate["inputs"]]
+    (old / "results.json").write_text(json.dumps(written))
+    shown = armcal()
+    assert shown.returncode == 1 and "Traceback" not in shown.stderr, shown.stderr
+    assert "results.json: residual_model.coordinates.0.inputs.0: 5 joint values for 6 joints" in shown.stderr
+
+
 def _true_reflector(geometry, Q: np.ndarray) -> np.ndarray:
     """Where the tracker reads the bent robot's reflector at joints Q (rad), mm: the simulator's chain plus the bend
     along the tracker's z (bend_campaign)."""

@@ -53,6 +53,7 @@ NOISE_FLOOR = 0.5  # the noise term's standard deviation is at least this fracti
 OUTSIDE = 0.5  # predictive std / prior std above which a prediction is outside the calibrated region
 NEGLIGIBLE = 0.1  # prior std / noise std below which a coordinate's model learned nothing (never outside)
 RANDOM_STATE = 0
+PREDICT_BLOCK = 4096  # rows predicted at once: (rows x MAX_TRAINING) arrays of 26 MB, whatever the rows (compensate's targets)
 CARRIED = (
     "The learned model is carried by results.json, calibrated.yaml (its residual_model section), export --format json (its training "
     "inputs and hyperparameters) and compensate (a point's base-frame correction, applied to the target's position where it is "
@@ -79,15 +80,17 @@ class CoordinateModel:
     outside: float = OUTSIDE  # the fraction of the prior's standard deviation above which a prediction is outside
 
     def carried(self) -> dict:
-        """What reproduces the model's predictions elsewhere (results.json, ``export --format json``): the training
-        inputs and targets and the hyperparameters of C * RBF(l) + White, fitted no more."""
+        """What reproduces the model's predictions elsewhere (results.json, calibrated.yaml, ``export --format json``;
+        stored_model reads it back): the training inputs and targets and the hyperparameters of C * RBF(l) + White,
+        fitted no more."""
         return {"coordinate": self.channel, "inputs": self.q.tolist(), "targets": self.y.tolist(),
                 "signal_variance": self.constant, "length_scales": self.length_scales.tolist(), "noise_variance": self.noise}
 
     def predict(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The learned correction (measured - predicted) at joint values ``q``, its standard deviation (the
         function's, without the noise term) and whether it is inside the calibrated region."""
-        mean, std = self.regressor.predict(q, return_std=True)
+        parts = [self.regressor.predict(q[start : start + PREDICT_BLOCK], return_std=True) for start in range(0, len(q), PREDICT_BLOCK)]
+        mean, std = (np.concatenate([np.zeros(0), *(part[k] for part in parts)]) for k in (0, 1))
         latent = np.sqrt(np.maximum(std**2 - self.noise, 0.0))
         return mean, latent, (latent <= self.outside * np.sqrt(self.constant)) | self.learned_nothing
 

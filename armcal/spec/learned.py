@@ -19,7 +19,7 @@ JOINT_UNIT = {"angle": "rad", "length": "mm"}  # the unit of a joint's value (pa
 BASE = ("base_x", "base_y", "base_z")  # a point's learned coordinates: its error in the robot's base frame
 MAX_TRAINING = 800  # readings per coordinate that train a model at most (a spread subset above)
 MAX_COORDINATES = 16  # a point's three base coordinates, a tracker's three angles, a sonic digitizer's microphones
-MAX_JOINTS = 64
+MAX_JOINTS = 64  # values in a row or length scales at most, before they are checked against the robot's joints
 CHANNELS = ("rx", "ry", "rz", "length", "contact", "dx", "dy", "dz", "azimuth", "elevation")  # read as coordinates of their own
 # (devices/*.py channels; a point's x, y, z are learned in the base frame), and a sonic digitizer's s_<microphone>
 MICROPHONE = re.compile(r"s_[A-Za-z0-9_]{1,64}")

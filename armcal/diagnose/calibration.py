@@ -29,7 +29,7 @@ from armcal.effects.measurement import EffectSet
 from armcal.identify.fit import design_identifiability, fit
 from armcal.identify.methods import Identified, identify_parameters
 from armcal.identify.problem import Problem, build_problem
-from armcal.identify.heldout import held_out
+from armcal.identify.heldout import MovedInstrument, NewStations, held_out
 from armcal.identify.starting_values import starting_values
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.identify.variance import NoiseEstimates, estimate_noise, provisional_scale, readings_groups, rescaled, unit_scale, wants_estimation
@@ -96,7 +96,7 @@ def identify_and_diagnose(
         if settings.residual_model == "gp":  # after the physical loop, on its folds (residual_model.py)
             residual = judge(diagnosis.context, diagnosis.problem, result)
             if diagnosis.validation is not None:
-                figures = applied(residual, diagnosis.validation, result.theta, validation.q, device)
+                figures = applied(residual, diagnosis.validation, result.theta, validation, device, _registered_anew(diagnosis, moved))
         identified = Identified(result.theta, result.std, result)
         return Calibration(diagnosis.problem, diagnosis.validation, identified, diagnosis, padded, noise, residual, figures)
     validation_problem = None
@@ -104,6 +104,15 @@ def identify_and_diagnose(
         moved = spec.data is not None and spec.data.instrument_moved
         validation_problem = held_out(kinematics, device, validation, effects, moved)
     return Calibration(problem, validation_problem, identify_parameters(spec, problem, raw, start), None, start, noise)
+
+
+def _registered_anew(diagnosis: Diagnosis, moved: bool):
+    """None when the validation problem keeps the calibrated frames, else what builds it again from other data (its
+    frames registered anew from them), with the final problem's parameters."""
+    if not isinstance(diagnosis.validation, (MovedInstrument, NewStations)):
+        return None
+    context = diagnosis.context
+    return lambda data: replace(held_out(context.kinematics, context.device, data, context.effects, moved), parameters=diagnosis.problem.parameters)
 
 
 def noise_from_data(spec: Spec, kinematics: KinematicModel, device: DeviceModel, calibration: Measurements) -> tuple[NoiseEstimates, DeviceModel]:

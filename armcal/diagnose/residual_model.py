@@ -35,10 +35,11 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from armcal.dataio.measurements import Measurements
 from armcal.diagnose.loop import Context, holds_out
 from armcal.identify.fit import FitResult
 from armcal.identify.heldout import FRAME_PREFIXES
@@ -317,13 +318,38 @@ def judge(context: Context, problem: Problem, result: FitResult) -> Judgement:
     return Judgement(accepted, z, along, summary(parts), model, placed.turns, time.perf_counter() - started)
 
 
-def applied(judgement: Judgement, problem: Problem, theta: np.ndarray, q: np.ndarray, device) -> Figures:
-    """The errors of ``problem`` (e.g. the validation data; ``q`` its samples' joint values) at ``theta`` without and
-    with the judged model; a station the calibration data had keeps their turn where it has fewer than 3 points."""
+def applied(judgement: Judgement, problem: Problem, theta: np.ndarray, data: Measurements, device, registered_anew=None) -> Figures:
+    """The errors of ``problem`` (the held-out ``data``) at ``theta`` without and with the judged model; a station the
+    calibration data had keeps their turn where it has fewer than 3 points. A problem whose frames are registered
+    anew from the data (a moved instrument, a new station) is rebuilt by ``registered_anew`` from the data less the
+    learned correction, so that each frame is registered on the model it is judged with (physical + learned)."""
     r, _ = problem.evaluate(theta)
-    placed = layout(problem, r, q, theta, device, judgement.turns)
-    change, outside = judgement.model.correction(problem, placed, q)
+    placed = layout(problem, r, data.q, theta, device, judgement.turns)
+    change, outside = judgement.model.correction(problem, placed, data.q)
+    if registered_anew is not None:
+        learned, _ = registered_anew(corrected(judgement.model, data, placed.turns, device)).evaluate(theta)
+        change = learned - r  # the same readings, the same order: r + change, the residuals of physical + learned
     return summary([(problem, r, change, outside, placed)])
+
+
+def corrected(model: ResidualModel, data: Measurements, turns: dict, device) -> Measurements:
+    """``data`` with each reading less the learned correction (measured - predicted) where it is inside the calibrated
+    region: a point's turned into its station's frame (``turns``; a station without one is left as read)."""
+    readings = {name: values.copy() for name, values in data.readings.items()}
+    known = np.all(np.isfinite(data.q), axis=1)
+    for name, coordinate in model.coordinates.items():
+        if name in readings:
+            mean, _, inside = coordinate.predict(np.nan_to_num(data.q))
+            readings[name] -= np.where(inside & known, mean, 0.0)
+    if set(BASE) <= set(model.coordinates) and set(POINT) <= set(readings):
+        stations = [device.station(key) for key in data.keys]
+        rows = np.flatnonzero(known & np.array([device.target(k) is not None and s in turns for k, s in zip(data.keys, stations)], dtype=bool))
+        predicted = [model.coordinates[name].predict(data.q[rows]) for name in BASE]
+        shift = np.where(np.stack([p[2] for p in predicted], axis=1), np.stack([p[0] for p in predicted], axis=1), 0.0)
+        turned = np.einsum("nij,nj->ni", np.array([turns[stations[i]] for i in rows]).reshape(-1, 3, 3), shift)
+        for k, name in enumerate(POINT):
+            readings[name][rows] -= turned[:, k]
+    return replace(data, readings=readings)
 
 
 def summary(parts: list[tuple[Problem, np.ndarray, np.ndarray, np.ndarray, Layout]]) -> Figures:

@@ -145,7 +145,7 @@ class PlaneContact(DeviceSpec):
     def starter(dof: int, home: list[float], s: float) -> tuple[list[str], list[str]]:
         """`armcal new`'s targets and sections (``dof`` joints, ``s`` times the PUMA 560's size): a ball probe on the
         flange, a datum cube's five accessible faces (known) in front of the robot, the robot base free in the cube's frame."""
-        half, ahead = 75.0 * s, 450.0 * s
+        half, ahead = 150.0 * s, 450.0 * s  # a cube of half the PUMA's 75 mm left a flat direction on the KR 6 (docs/robots.md)
         faces = {"front": (-1, 0, 0), "back": (1, 0, 0), "left": (0, 1, 0), "right": (0, -1, 0), "top": (0, 0, 1)}
         return [flange_point(dof, "probe")], [
             "device:",

@@ -35,6 +35,7 @@ from armcal.spec_parts.robot import Pose
 
 PRIMARY = ("A", "B", "C")  # microphones used to triangulate (s_1, s_2, s_3 of 6.1-6.6)
 ROOM_TEMPERATURE = 21.1  # degC, 70 F: the sonic digitizer's nominal conditions
+HELD_OUT_SHIFT = 20.0  # deg: the starter's held-out sweeps start this far from the maker's home on every joint
 
 
 # The speed of sound (App. E)
@@ -185,8 +186,10 @@ class SonicDigitizer(DeviceSpec):
 
     @staticmethod
     def starter(dof: int, home: list[float], s: float) -> tuple[list[str], list[str]]:
-        """`armcal new`\'s targets and sections (``dof`` joints, ``s`` times the PUMA 560\'s size): Stone's GP-8-3D array scaled to the robot; circle-point sweeps from the maker's home."""
+        """`armcal new`\'s targets and sections (``dof`` joints, ``s`` times the PUMA 560\'s size): Stone's GP-8-3D array scaled to the robot; circle-point sweeps from the maker's home, held-out sweeps from another signature."""
+        held_out = ", ".join(f"{v - HELD_OUT_SHIFT if v > 0 else v + HELD_OUT_SHIFT:g}" for v in home)
         home = ", ".join(f"{v:g}" for v in home)
+        targets = f"  targets: [{', '.join(f'sparker{i}' for i in range(1, dof + 1))}]"
 
         def fixed_point(x: float, y: float) -> str:
             return f"{{x: {{value: {mm(x)}, vary: false}}, y: {{value: {mm(y)}, vary: false}}, z: {{value: 0, vary: false}}}}"
@@ -213,7 +216,13 @@ class SonicDigitizer(DeviceSpec):
             "procedure:   # circle-point sweeps (Stone 4.5, 6.4): each joint alone, from the maker's home",
             "  type: circle_point",
             f"  signature: [{home}]",
-            f"  targets: [{', '.join(f'sparker{i}' for i in range(1, dof + 1))}]",
+            targets,
+            "  points_per_joint: 20",
+            "  averaging: 10",
+            f"validation:   # held-out sweeps from another signature: the home, each joint {HELD_OUT_SHIFT:g} deg towards zero (past it from zero)",
+            "  type: circle_point",
+            f"  signature: [{held_out}]",
+            targets,
             "  points_per_joint: 20",
             "  averaging: 10",
         ]

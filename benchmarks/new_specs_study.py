@@ -34,6 +34,7 @@ from armcal.devices.registry import INSTRUMENTS  # noqa: E402
 from armcal.robot_library import names  # noqa: E402
 
 BOUND = 1.5  # held-out RMS over the noise a well-posed starting spec stays within (issue 34)
+CONDITION = 1e3  # condition number it stays below: a run reports a direction below 1e-3 of the largest as flat
 WEAK = "weakly identifiable"
 HEADER = (f"{'robot':24s} {'device':16s} {'exit':>4s} {'held-out RMS':>14s} {'noise':>8s} {'est.':>8s} {'ratio':>6s}"
           f" {'cond':>7s} {'s':>5s}  flat")
@@ -100,7 +101,7 @@ def main() -> None:
             with tempfile.TemporaryDirectory() as folder:
                 print(rehearse(robot, device, Path(folder)).row(), flush=True)
     print(f"held-out RMS: per coordinate; noise: the spec's sigma of one reading (est.: the run's, from the calibration"
-          f" residuals); ratio: held-out RMS in noise sigmas reading by reading (bound {BOUND}); cond: condition number;"
+          f" residuals); ratio: held-out RMS in noise sigmas reading by reading (bound {BOUND}); cond: condition number (bound {CONDITION:g});"
           " s: seconds; flat: flat directions, unidentifiable directions and parameters held as weakly identifiable")
 
 

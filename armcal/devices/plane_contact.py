@@ -162,7 +162,7 @@ class PlaneContact(DeviceSpec):
             f"  robot_base: {{x: {mm(-ahead)}, y: 0, z: {mm(-half)}, rz: 0, ry: 0, rx: 0}}",
             "  noise: 0.01   # mm: the touch's repeatability (trigger and the robot's latching of its joints)",
             "procedure:",
-            *random_poses(240, 1),
+            *random_poses(480, 1),
             "validation:",
             *random_poses(120, 2),
         ]

@@ -77,16 +77,17 @@ class SphereSocket(DeviceSpec):
     @staticmethod
     def starter(dof: int, home: list[float], s: float) -> tuple[list[str], list[str]]:
         """`armcal new`\'s targets and sections (``dof`` joints, ``s`` times the PUMA 560\'s size): a ball on the flange,
-        four sockets on a table in front of the robot, one certified distance; random poses."""
-        sockets = [(350.0, -150.0), (350.0, 150.0), (500.0, -150.0), (500.0, 150.0)]
+        four sockets in front of the robot, two of them raised, one certified distance; random poses."""
+        # two sockets on a riser: sockets in one plane leave a flat direction on a large arm (docs/robots.md)
+        sockets = [(350.0, -150.0, 0.0), (350.0, 150.0, 150.0), (500.0, -150.0, 150.0), (500.0, 150.0, 0.0)]
         return [flange_point(dof, "ball", x=40.0, z=80.0)], [
             "device:",
             "  type: sphere_socket",
             "  ball: ball",
-            "  # Four sockets (kinematic nests) on a table in front of the robot, robot base frame (placeholders:",
-            "  # free, identified with the robot; where they are matters only for the robot to reach them).",
+            "  # Four sockets (kinematic nests) in front of the robot, two on a riser, robot base frame (placeholders:",
+            "  # free, identified with the robot; not all in one plane).",
             "  sockets:",
-            *(f"    socket{i}: {{x: {mm(x * s)}, y: {mm(y * s)}, z: 0.0}}" for i, (x, y) in enumerate(sockets, 1)),
+            *(f"    socket{i}: {{x: {mm(x * s)}, y: {mm(y * s)}, z: {mm(z * s)}}}" for i, (x, y, z) in enumerate(sockets, 1)),
             "  distances:   # from the socket plate's certificate: they fix the scale",
             f"    - {{between: [socket1, socket4], length: {mm(np.hypot(150.0, 300.0) * s)}, noise: 0.002}}",
             "  noise: 0.005   # mm, the seating repeatability per coordinate",

@@ -1,0 +1,92 @@
+"""`armcal new`'s starting specs are well-posed for every library robot and device (issue 34).
+
+Fast, no calibration: every starting spec has held-out poses (a rehearsal's held-out RMS exists: the sonic
+digitizer's had none), every point the instrument reads sits off the last joint's axis (Goswami et al. after
+Duelen & Schroer: a point on it leaves the last joint's offset unidentified), and a ball-bar's chucks and spheres
+are not collinear (Goswami: "The three magnetic chucks must not be collinear", nor the spheres). The oracle for the
+axis is the URDF of tests/robot_urdfs.py in numpy: turning the last joint by 90 deg moves a point at distance r from
+its axis by r sqrt(2).
+
+Slow (``-m slow``, ~25 min niced on two shared cores): benchmarks/new_specs_study.py's rehearsal, new -> simulate ->
+run, for every robot with every device: the run completes, the held-out RMS is within 1.5 noise sigmas and nothing
+is flat (no flat or unidentifiable direction, no value held as weakly identifiable, condition number below 1000).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+from conftest import ROOT
+from robot_urdfs import CHAINS, urdf_flange_pose
+
+from armcal.commands.new import new_spec_text
+from armcal.devices.registry import INSTRUMENTS
+from armcal.robot_library import library_robot, names
+from armcal.spec import load_spec
+
+OFF_AXIS_MM = 20.0  # a read point this far from the last joint's axis at least
+NOT_COLLINEAR = 0.2  # a ball-bar's three chucks (spheres): second singular value of the centred points over the first
+
+
+def _study():
+    spec = importlib.util.spec_from_file_location("new_specs_study", ROOT / "benchmarks" / "new_specs_study.py")
+    study = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(study)
+    return study
+
+
+def _starter(robot: str, device: str, folder):
+    path = folder / f"{robot}-{device}.yaml"
+    path.write_text(new_spec_text(library_robot(robot), device, path.stem))
+    return load_spec(path).spec
+
+
+def _point(target) -> np.ndarray:
+    return np.array([target.x.value, target.y.value, target.z.value])
+
+
+def _distance_from_last_axis(robot: str, point: np.ndarray) -> float:
+    """mm from the last joint's axis of a point on the flange (flange frame, mm), at the maker's home (URDF, numpy)."""
+    home = np.radians(library_robot(robot).home)
+    turned = home + np.eye(len(home))[-1] * np.pi / 2
+    seen = [urdf_flange_pose(CHAINS[robot], q) @ np.append(point / 1000.0, 1.0) for q in (home, turned)]
+    return float(np.linalg.norm(seen[0] - seen[1])) * 1000.0 / np.sqrt(2.0)
+
+
+@pytest.mark.parametrize("device", list(INSTRUMENTS))
+def test_every_starting_spec_has_held_out_poses_and_reads_points_off_the_last_axis(device, tmp_path):
+    for robot in names():
+        spec = _starter(robot, device, tmp_path)
+        assert spec.validation is not None, (robot, device)
+        last = [t for t in spec.robot.targets.values() if t.link == spec.robot.dof]
+        assert last, (robot, device)
+        for target in last:
+            assert _distance_from_last_axis(robot, _point(target)) >= OFF_AXIS_MM, (robot, device, target)
+
+
+def test_a_ball_bars_chucks_and_spheres_are_not_collinear(tmp_path):
+    for robot in names():
+        spec = _starter(robot, "ballbar", tmp_path)
+        chucks = np.array([[p.x.value, p.y.value, p.z.value] for p in spec.device.pivots.values()])
+        spheres = np.array([_point(spec.robot.targets[name]) for name in spec.device.spheres])
+        for points in (chucks, spheres):
+            s = np.linalg.svd(points - points.mean(axis=0), compute_uv=False)
+            assert s[1] >= NOT_COLLINEAR * s[0], (robot, points)
+
+
+CASES = [pytest.param(robot, device, marks=[pytest.mark.slow] + ([pytest.mark.xfail(
+    strict=True, reason="the shells hold the sphere's axis halfway between down and the chuck: the spheres' offset along "
+    "it trades with the arm's lengths and the chucks' heights, a sphere's z is held as weakly identifiable (docs/robots.md)")]
+    if device == "ballbar" else [])) for robot in names() for device in INSTRUMENTS]
+
+
+@pytest.mark.parametrize(("robot", "device"), CASES)
+def test_new_simulate_run_is_within_the_noise_with_nothing_flat(robot, device, tmp_path):
+    study = _study()
+    case = study.rehearse(robot, device, tmp_path)
+    assert case.exit == 0 and case.results is not None, case.error
+    assert case.ratio() <= study.BOUND, case.row()
+    assert case.results["identifiability"]["condition_number"] < study.CONDITION, case.row()
+    assert not case.flat(), case.row()

@@ -51,8 +51,6 @@ class BallBar(DeviceSpec):
 
     def check_procedure(self, procedure, loc):
         yield from super().check_procedure(procedure, loc)
-        if procedure.type == "poses" and procedure.file is None:
-            yield (*loc, "count"), "a ball-bar's poses come from a file with pivot and sphere columns (armcal plan writes one), not count"
         if procedure.type != "shells":
             return
         for i, pairing in enumerate(procedure.pairings):
@@ -75,13 +73,12 @@ class BallBar(DeviceSpec):
 
     @staticmethod
     def starter(dof: int, home: list[float], s: float) -> tuple[list[str], list[str]]:
-        """`armcal new`\'s targets and sections (``dof`` joints, ``s`` times the PUMA 560\'s size): Goswami's fixture scaled to the robot: three spheres, three chucks, shells."""
+        """`armcal new`\'s targets and sections (``dof`` joints, ``s`` times the PUMA 560\'s size): Goswami's fixture scaled to the robot: three spheres, three chucks;
+        random points on the shells (``random_keyed_poses``), not the shells' fixed axis, which leaves the spheres' offset along it flat."""
         # Goswami's fixture: three spheres 60 mm off the flange axis, 80 mm out; three chucks on the table.
         spheres = [(60.0, 0.0), (-30.0, 51.962), (-30.0, -51.962)]
         targets = [f"sphere{i}: {{link: {dof}, x: {x:g}, y: {y:g}, z: 80}}" for i, (x, y) in enumerate(spheres, 1)]
         chucks = [(565.0, 0.0), (392.5, 100.0), (392.5, -100.0)]
-        pairings = [f"    - {{pivot: chuck{p}, sphere: sphere{q}}}" for p in (1, 2, 3) for q in (1, 2, 3)]
-        shells = ["  latitudes: [20, 35, 50, 65, 80]", "  longitudes: 23"]
         return targets, [
             "device:",
             "  type: ballbar",
@@ -91,20 +88,17 @@ class BallBar(DeviceSpec):
             *(f"    chuck{i}: {{x: {mm(x * s)}, y: {mm(y * s)}, z: 0.0}}" for i, (x, y) in enumerate(chucks, 1)),
             "  spheres: [sphere1, sphere2, sphere3]",
             f"  length: {{value: {mm(460 * s)}, vary: false}}   # centre-to-centre at mid-travel",
-            f"  extension_rods: {{rod: {mm(150 * s)}}}",
             f"  travel: {mm(75 * s)}",
             "  noise: 0.084   # mm (Goswami's residual level)",
-            "procedure:",
-            "  type: shells",
-            "  pairings:",
-            *pairings,
-            *shells,
-            "validation:   # the same pairings with the extension rod: held-out shells",
-            "  type: shells",
-            "  pairings:",
-            *pairings,
-            *shells,
-            "  extension: rod",
+            "procedure:   # random points on Goswami's shells, every chuck with every sphere: a random bar length within the",
+            "  # travel and the sphere's axis tilted at random (on the shells' fixed axis the spheres' offset along it is flat)",
+            "  type: poses",
+            "  count: 600   # drawn; those out of reach or of the bar's travel are dropped",
+            "  seed: 1",
+            "validation:   # another draw: held-out poses",
+            "  type: poses",
+            "  count: 300",
+            "  seed: 2",
         ]
 
     def describe(self, length) -> tuple[str, list[str]]:

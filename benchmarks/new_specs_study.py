@@ -12,7 +12,7 @@ Per case, from the run's results.json (the contract of docs/architecture.md and 
     parameters held as "weakly identifiable" (identifiability.fixed[].reason); "-" when there are none.
 
 Run: .venv/bin/python benchmarks/new_specs_study.py [--robots ur5e,kuka_kr6_r900_sixx] [--devices ballbar,tracker]
-(prints one table; ~20-60 s a case niced on 2 cores, the first run of a robot-device pair compiles)
+(prints one table; 6-29 s a case niced on 2 shared cores, about 15 min for the 84)
 """
 
 from __future__ import annotations

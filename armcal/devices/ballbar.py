@@ -74,7 +74,7 @@ class BallBar(DeviceSpec):
     @staticmethod
     def starter(dof: int, home: list[float], s: float) -> tuple[list[str], list[str]]:
         """`armcal new`\'s targets and sections (``dof`` joints, ``s`` times the PUMA 560\'s size): Goswami's fixture scaled to the robot: three spheres, three chucks;
-        random points on the shells (``random_keyed_poses``), not the shells' fixed axis, which leaves the spheres' offset along it flat."""
+        random points on his shells (Fig. 2; ``random_keyed_poses``): on their fixed axis the spheres' offset along it is nearly flat."""
         # Goswami's fixture: three spheres 60 mm off the flange axis, 80 mm out; three chucks on the table.
         spheres = [(60.0, 0.0), (-30.0, 51.962), (-30.0, -51.962)]
         targets = [f"sphere{i}: {{link: {dof}, x: {x:g}, y: {y:g}, z: 80}}" for i, (x, y) in enumerate(spheres, 1)]

@@ -145,7 +145,8 @@ class PlaneContact(DeviceSpec):
     def starter(dof: int, home: list[float], s: float) -> tuple[list[str], list[str]]:
         """`armcal new`'s targets and sections (``dof`` joints, ``s`` times the PUMA 560's size): a ball probe on the
         flange, a datum cube's five accessible faces (known) in front of the robot, the robot base free in the cube's frame."""
-        half, ahead = 150.0 * s, 450.0 * s  # a cube of half the PUMA's 75 mm left a flat direction on the KR 6 (docs/robots.md)
+        # a 150 mm cube left the KR 6 R900 a flat direction; its back face stays no farther than before (docs/robots.md)
+        half, ahead = 150.0 * s, 375.0 * s
         faces = {"front": (-1, 0, 0), "back": (1, 0, 0), "left": (0, 1, 0), "right": (0, -1, 0), "top": (0, 0, 1)}
         return [flange_point(dof, "probe")], [
             "device:",
@@ -162,7 +163,7 @@ class PlaneContact(DeviceSpec):
             f"  robot_base: {{x: {mm(-ahead)}, y: 0, z: {mm(-half)}, rz: 0, ry: 0, rx: 0}}",
             "  noise: 0.01   # mm: the touch's repeatability (trigger and the robot's latching of its joints)",
             "procedure:",
-            *random_poses(480, 1),
+            *random_poses(960, 1),
             "validation:",
             *random_poses(120, 2),
         ]

@@ -7,7 +7,7 @@ one plane (in one they left a flat direction on the large arms) and a ball-bar's
 (Goswami: "The three magnetic chucks must not be collinear", nor the spheres). The oracle for the axis is the URDF of
 tests/robot_urdfs.py in numpy: turning the last joint by 90 deg moves a point at distance r from its axis by r sqrt(2).
 
-Slow (``-m slow``, about 20 min niced on two shared cores): benchmarks/new_specs_study.py's rehearsal, new -> simulate ->
+Slow (``-m slow``, 15 min niced on two shared cores: 84 passed in 910 s): benchmarks/new_specs_study.py's rehearsal, new -> simulate ->
 run, for every robot with every device: the run completes, the held-out RMS is within 1.5 noise sigmas and nothing
 is flat (no flat or unidentifiable direction, no value held as weakly identifiable, condition number below 1000).
 """

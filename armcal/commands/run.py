@@ -10,6 +10,7 @@ from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model, readings_mode
 from armcal.support.errors import Issue, SpecError, UserError, shown_value
 from armcal.diagnose.calibration import identify_and_diagnose
+from armcal.diagnose.residual_model import IN_RESULTS_ONLY
 from armcal.evaluate.evidence import evidence
 from armcal.evaluate.grid import evaluation_tasks
 from armcal.evaluate.residuals import residuals_csv
@@ -98,16 +99,28 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     results = build_results(loaded, figures, run_id=identifier, warnings=warnings,
                             simulated={"calibration": simulated[0], "validation": simulated[1] if validation_path else None})
     results = Results.model_validate({**results.model_dump(mode="json"), "history": history_entries(results.model_dump(mode="json"), earlier)})
+    calibrated_spec, left_out = calibrated_text(loaded, results, calibrated, out_dir)
+    if left_out is not None:
+        results = in_results_only(results, left_out)
     with stage("writing the certificate" + (" (PDF)" if pdf else "")):
         files = {
             "results.json": json.dumps(results.model_dump(mode="json"), indent=2) + "\n",
-            "calibrated.yaml": calibrated_text(loaded, results, calibrated, out_dir),
+            "calibrated.yaml": calibrated_spec,
             "residuals.csv": residuals_csv(calibrated, calibration.rows, validation.rows if validation is not None else None, spec.robot.units),
             **plots,
             **certificate_files(results.model_dump(mode="json"), plots, pdf, user_templates),
         }
     publish(files, identifier)  # only now, all at once: a failure above leaves the previous set as it was
     return Outcome(results, out_dir)
+
+
+def in_results_only(results: Results, why: str) -> Results:
+    """``results`` whose accepted learned model calibrated.yaml does not hold (``why``: calibrated_text): where it is
+    carried, and a warning, say so."""
+    carried = IN_RESULTS_ONLY.format(why=why)
+    warning = f"the learned residual model the run accepted is not in calibrated.yaml ({why}): export and compensate the run's folder, which read results.json's"
+    return results.model_copy(update={"residual_model": results.residual_model.model_copy(update={"carried": carried}),
+                                      "warnings": [*results.warnings, warning]})
 
 
 def residual_model_note(spec, calibrated) -> list[str]:

@@ -60,6 +60,11 @@ CARRIED = (
     "inputs and hyperparameters) and compensate (a point's base-frame correction, applied to the target's position where it is "
     "inside the calibrated region); the other export formats carry the physical model only"
 )
+IN_RESULTS_ONLY = (  # CARRIED where calibrated.yaml could not hold the model (results/calibrated.py: calibrated_text)
+    "The learned model is carried by results.json, and from the run's folder by export --format json and compensate (a point's "
+    "base-frame correction, applied to the target's position where it is inside the calibrated region), which read results.json's; "
+    "not by calibrated.yaml alone ({why}); the other export formats carry the physical model only"
+)
 RESTARTS = 1  # random restarts of the marginal likelihood's optimizer for the model on all the calibration data
 FOLD_RESTARTS = 0  # and for each fold's model: a restart costs 2-3.5x a fit, and a fold model less well fitted only
 # makes the test harder to pass (the k-fold test is conservative); no fold model starts from the all-data model's

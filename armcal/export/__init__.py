@@ -40,7 +40,7 @@ def learned_model(loaded: LoadedSpec, results: dict | None, fmt: str | None = No
         return "the learned residual model that the run accepted is not carried (only the physical model is): see calibrated.yaml residual_model"
     if results is None and loaded.spec.diagnose.residual_model == "gp":
         return ("the spec asks for a learned residual model (diagnose.residual_model: gp) and holds none (a run's calibrated.yaml holds "
-                "the one it accepted): only the physical model is carried")
+                "the one it accepted, or says it is in the run's results.json only: then give the run's folder): only the physical model is carried")
     return None
 
 

@@ -25,6 +25,9 @@ from armcal.effects.library import to_spec_dict
 from armcal.kinematics.params import parameter_set
 from armcal.spec.document import Spec
 from armcal.spec.learned import section_of
+from armcal.spec.loader import spec_from_bytes
+from armcal.support.errors import SpecError
+from armcal.support.fileio import INPUT_LIMITS, KiB
 from armcal.spec.locations import yaml_path
 from armcal.support.units import from_internal, snapped
 
@@ -167,8 +170,9 @@ def _plain_sigmas(spec: Spec, estimates: dict[str, tuple[float, str]] | None) ->
     return plain or None
 
 
-def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
-    """calibrated.yaml of a run: the fitted model's values written in, added effects appended."""
+def calibrated_text(loaded, results, calibrated, out_dir: Path) -> tuple[str, str | None]:
+    """(calibrated.yaml of a run: the fitted model's values written in, added effects appended, the accepted learned
+    residual model as its residual_model section; why that section is left out where it would not be read back, else None)."""
     problem, theta = calibrated.problem, calibrated.identified.theta
     index = problem.parameters.index
     added = calibrated.diagnosis.added if calibrated.diagnosis else []
@@ -193,6 +197,29 @@ def calibrated_text(loaded, results, calibrated, out_dir: Path) -> str:
         f"(sha256 {loaded.sha256[:12]}), run {results.run_id}, status {results.status}."
         + (f"\nHeld (vary: false) as the fit held them, not identifiable at the design point: {', '.join(held)}." if held else "")
         + (f"\nThe device's {', '.join(noise)} estimated from the calibration data (results.json: noise)." if noise else "")
-        + ("\nresidual_model: the learned residual model the run accepted (read by export and compensate; a run learns its own)." if learned else "")
     )
-    return calibrated_yaml(loaded.text, loaded.spec, identified, loaded.path, out_dir, note, new_effects, noise, learned)
+    written = lambda model, line: calibrated_yaml(loaded.text, loaded.spec, identified, loaded.path, out_dir, note + line,  # noqa: E731
+                                                  new_effects, noise, model)
+    if learned is None:
+        return written(None, ""), None
+    text = written(learned, "\nresidual_model: the learned residual model the run accepted (read by export and compensate; a run learns its own).")
+    why = unreadable(text, out_dir / "calibrated.yaml")
+    if why is None:
+        return text, None
+    return written(None, f"\nThe learned residual model the run accepted is in results.json only: {why}."), why
+
+
+def unreadable(text: str, path: Path) -> str | None:
+    """Why a calibrated spec holding a residual_model section would not be read back by export and compensate (the
+    size limit of a spec file, the YAML's values, the section's checks), else None."""
+    raw = text.encode("utf-8")
+    limit = INPUT_LIMITS["spec"]
+    if len(raw) > limit:
+        return f"with it calibrated.yaml would have {len(raw) // KiB} KiB, more than the {limit // KiB} KiB a spec file may have"
+    try:
+        spec_from_bytes(raw, path)
+    except SpecError as exc:
+        mine = [issue for issue in exc.issues if not issue.field or issue.field.startswith("residual_model")]
+        if mine:
+            return f"with it calibrated.yaml would not be read back ({mine[0].field or 'the file'}: {mine[0].message})"
+    return None

@@ -26,7 +26,8 @@ from armcal.export.compensation import compensate
 from armcal.spec.learned import BASE, ResidualModelSection, section_of
 from test_compensation import _commands, _with_tool_at_smr, registration_of
 from armcal.kinematics.compiler import compile_robot
-from armcal.commands.run import fitted_device, residual_model_note, run
+from armcal.commands.run import fitted_device, in_results_only, residual_model_note, run
+from armcal.results.calibrated import calibrated_text
 from armcal.spec import load_spec
 from armcal.commands.terminal import run_summary
 
@@ -186,6 +187,39 @@ def test_a_run_folder_without_the_section_carries_results_jsons_model_and_refuse
     shown = armcal()
     assert shown.returncode == 1 and "Traceback" not in shown.stderr, shown.stderr
     assert "results.json: residual_model.coordinates.0.inputs.0: 5 joint values for 6 joints" in shown.stderr
+
+
+def _fitted_nothing():
+    """A calibration that changes no value: calibrated_text writes the spec back with the run's learned model alone."""
+    identified = SimpleNamespace(theta=[], features=None, least_squares=SimpleNamespace(identifiability=SimpleNamespace(base=[])))
+    return SimpleNamespace(problem=SimpleNamespace(parameters=SimpleNamespace(entries=[], index=None)), identified=identified, diagnosis=None, noise=None)
+
+
+@pytest.mark.parametrize("padding, noise, why", [
+    (0, None, None),
+    (200_000, None, "KiB, more than the 256 KiB a spec file may have"),  # a spec of 200 KB (its comments): with the model above 256 KiB
+    (0, 1e-20, "would not be read back (residual_model.coordinates[0]: The noise_variance (1e-20) is below 1e-10"),
+])
+def test_a_model_calibrated_yaml_could_not_read_back_stays_in_results_json_and_says_so(bent, tmp_path, padding, noise, why):
+    """calibrated.yaml holds the accepted model only where export and compensate read it back (a spec's size limit, the
+    section's checks): else the run writes it without, and its header, results.json's carried and a warning say where it is."""
+    outcome, *_ = bent
+    spec = tmp_path / "spec.yaml"
+    spec.write_text((outcome.out_dir.parent / "spec.yaml").read_text() + "# " + "x" * padding + "\n")
+    results = outcome.results
+    if noise is not None:
+        learned = results.residual_model.model_dump()
+        learned["model"] = [{**c, "noise_variance": noise} for c in learned["model"]]
+        results = results.model_copy(update={"residual_model": type(results.residual_model).model_validate(learned)})
+    text, left_out = calibrated_text(load_spec(spec), results, _fitted_nothing(), tmp_path)
+    assert (left_out is None) if why is None else why in left_out, left_out
+    assert ("\nresidual_model:" in text) == (why is None)
+    if why is None:
+        return
+    assert f"# The learned residual model the run accepted is in results.json only: {left_out}." in text
+    told = run_summary(SimpleNamespace(results=in_results_only(results, left_out), out_dir=tmp_path))
+    assert f"warning: the learned residual model the run accepted is not in calibrated.yaml ({left_out})" in told
+    assert f"not by calibrated.yaml alone ({left_out})" in told
 
 
 def _true_reflector(geometry, Q: np.ndarray) -> np.ndarray:

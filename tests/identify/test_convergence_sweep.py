@@ -55,7 +55,7 @@ def calibrate(spec_path):
     results = build_results(loaded, run_figures(loaded, calibrated, calibration.rows, {}, {}, [], campaign(loaded, calibration, validation, (False, False))))
     out = spec_path.parent / "out"
     out.mkdir()
-    (out / "calibrated.yaml").write_text(calibrated_text(loaded, results, calibrated, out))
+    (out / "calibrated.yaml").write_text(calibrated_text(loaded, results, calibrated, out)[0])
     return calibrated, out / "calibrated.yaml"
 
 

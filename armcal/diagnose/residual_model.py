@@ -4,7 +4,8 @@ learned on the joint values by Gaussian processes, and kept only where it holds 
 One scikit-learn GaussianProcessRegressor per learned coordinate, each on the joint values (rad for a revolute
 joint, mm for a prismatic one) with the kernel C * RBF(l_1..l_n) + White: one length scale per joint (ARD), bounded
 below at SHORTEST (per joint type), and a noise level bounded below at (NOISE_FLOOR * sigma)^2, sigma the
-coordinate's median declared (or estimated) sigma; hyperparameters by the marginal likelihood (a fixed
+coordinate's median declared (or estimated) sigma, and the signal variance bounded above at 1e3 times the targets'
+variance and at half the noise floor / NOISE_RATIO (within what a stored model may have: spec/learned.py); hyperparameters by the marginal likelihood (a fixed
 random_state, one restart for the model on all the data, none for a fold's). Above MAX_TRAINING readings per
 coordinate a spread subset of that many trains it (farthest-point selection in joint space): the subset-of-data
 approximation, O(MAX_TRAINING^3) whatever the size.
@@ -45,7 +46,7 @@ from armcal.identify.fit import FitResult
 from armcal.identify.heldout import FRAME_PREFIXES
 from armcal.identify.problem import Problem
 from armcal.kinematics.transforms import rigid_registration
-from armcal.spec.learned import BASE, MAX_TRAINING, ResidualModelSection
+from armcal.spec.learned import BASE, MAX_TRAINING, NOISE_RATIO, ResidualModelSection
 
 SHORTEST = {"revolute": 0.2, "prismatic": 20.0}  # rad, mm: no faster variation along a joint than this is learned
 # (0.2 rad turns a point 100 mm from the axis by 20 mm: the slide's length scale is bounded as that point's motion)
@@ -267,8 +268,10 @@ def fit_coordinate(channel: str, q: np.ndarray, y: np.ndarray, sigma: float, sho
     keep = spread_subset(q, MAX_TRAINING)
     q, y = q[keep], y[keep]
     floor = (NOISE_FLOOR * sigma) ** 2
-    scale = max(float(np.var(y)), floor)
-    kernel = ConstantKernel(scale, (scale * 1e-6, scale * 1e3)) * RBF(
+    ceiling = 0.5 * floor / NOISE_RATIO  # within the signal variance a stored model may have over its noise (spec/learned.py):
+    # half, so that the bounds' round trip through logarithms in the optimizer never crosses it
+    scale = min(max(float(np.var(y)), floor), ceiling)
+    kernel = ConstantKernel(scale, (scale * 1e-6, min(scale * 1e3, ceiling))) * RBF(
         5.0 * shortest, np.stack([shortest, 5e3 * shortest], axis=1)
     ) + WhiteKernel(max(sigma**2, floor), (floor, max(sigma**2, floor) * 1e4))
     regressor = GaussianProcessRegressor(kernel, n_restarts_optimizer=restarts, random_state=RANDOM_STATE)

@@ -35,8 +35,8 @@ LARGEST = 1e6  # rad or mm: no joint value or correction is larger (a kilometre,
 Variance = Annotated[Number, Field(gt=0.0, le=LARGEST**2)]
 Value = Annotated[Number, Field(ge=-LARGEST, le=LARGEST)]
 NOISE_RATIO = 1e-10  # the noise variance is at least this fraction of the signal's: the kernel matrix stays positive
-# definite in double precision whatever the inputs (a fitted one is far above it: its noise term is at least (0.5 sigma)^2,
-# its signal variance at most 1e3 times its targets' variance)
+# definite in double precision whatever the inputs (a fitted one's is: its noise term is at least (0.5 sigma)^2 and its
+# signal variance at most half that / NOISE_RATIO, diagnose/residual_model.fit_coordinate)
 
 
 class LearnedCoordinate(SpecModel):

@@ -296,6 +296,16 @@ def calibrated(folder, spec):
     return identify_and_diagnose(loaded.spec, compile_robot(loaded.spec.robot), device, raw, device.prepare(raw), validation)
 
 
+def test_a_model_fitted_far_above_its_noise_is_one_calibrated_yaml_holds():
+    """A smooth 20 mm leftover read with 0.1 micrometre noise: without an upper bound the signal variance rose to
+    1.2e11 times the noise term's, which the residual_model section refuses (its noise at least 1e-10 of its signal):
+    the run's own model could not be stored or read back from results.json."""
+    q = np.random.default_rng(0).uniform(-2, 2, (60, 6))
+    y = 20 * np.sin(q[:, 1] + q[:, 2]) + np.random.default_rng(1).normal(0, 1e-4, 60)
+    model = fit_coordinate("base_x", q, y, 1e-4, np.full(6, 0.2))
+    ResidualModelSection.model_validate({"kind": "gp", "outside_fraction": 0.5, "joint_units": ["rad"] * 6, "coordinates": [model.carried()]})
+
+
 def test_above_the_limit_a_spread_subset_trains():
     q = np.random.default_rng(0).uniform(-1, 1, (3000, 2))
     q[:4] = [[-1, -1], [1, 1], [-1, 1], [1, -1]]  # the corners a spread subset must reach

@@ -44,6 +44,7 @@ POSE_KINDS = dict(zip(POSE, ("length",) * 3 + ("angle",) * 3))  # the spec's len
 FIXED_POINT_STEPS = 50
 FIXED_POINT_TOLERANCE = 1e-13  # rad or mm
 REACHED = 1e-4  # mm (and the axis columns' difference): a target the calibrated robot reaches
+FARTHEST = 1e6  # mm: a target's x, y and z at most (a kilometre)
 ERROR_DECIMALS = 9  # position_error_mm to the picometre, far below REACHED and ik's 1e-6 mm: no rounding noise printed
 
 
@@ -61,6 +62,7 @@ def _targets(text: str, name: str, spec) -> tuple[list[str], np.ndarray, np.ndar
     names = text_columns.get("name", [""] * count)
     labels = [names[r] or str(r + 1) for r in range(count)]
     _unique(labels, Path(name))
+    _near(values, Path(name), spec.robot.units.length)
     x, y, z, rx, ry, rz = (values[c] for c in POSE)
     goals = ik.pose_goals(xyz_zyx_stacked(x, y, z, rz, ry, rx))
     seeds = np.stack([values.get(c, np.full(count, np.nan)) for c in joints], axis=1)
@@ -77,6 +79,16 @@ def _unique(labels: list[str], path: Path) -> None:
         first.setdefault(label, r + 2)
     if repeated:
         raise SpecError(repeated[:MAX_ISSUES])
+
+
+def _near(values: dict[str, np.ndarray], path: Path, unit: str) -> None:
+    """Each target's position within FARTHEST of the world origin: beyond, no robot reaches it, and its arithmetic
+    (inverse kinematics' squared errors) would overflow."""
+    far = sorted((int(r), c) for c in POSE[:3] for r in np.flatnonzero(np.abs(values[c]) > FARTHEST))
+    if far:
+        scale = factor("length", unit)
+        raise SpecError([Issue(path, r + 2, None, c, f"farther than any robot reaches (more than {FARTHEST / scale:g} {unit}, a kilometre, "
+                                                      "from the world origin)") for r, c in far[:MAX_ISSUES]])
 
 
 def _deviation(function: ca.Function, kinematics: KinematicModel, effects: EffectSet):

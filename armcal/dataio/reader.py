@@ -115,6 +115,8 @@ def _number(text: str, kind: str, spec: Spec) -> float:
         raise ValueError("not a finite number (nan or an infinity)")
     if kind in ("length", "angle"):
         value *= factor(kind, getattr(spec.robot.units, kind))
+        if not math.isfinite(value):
+            raise ValueError(f"too large: infinite in {'mm' if kind == 'length' else 'rad'}, armcal's internal unit")
     elif kind == "direction" and value not in (1.0, -1.0):
         raise ValueError("a direction is +1 or -1")
     return value

@@ -1,7 +1,7 @@
 """compensate's targets file (issue 30 class 8) is read by the measured-data reader (dataio.reader.read_table): a BOM
 and CRLF are read, an unknown, doubled or missing column, a partial seed, a seed outside the joint limits, a row of
 the wrong length, an unclosed quote, an empty or non-numeric cell, a position beyond a kilometre (its arithmetic overflowed: numpy's
-warnings, not one message) is one located message, exit 1, no traceback;
+warnings, not one message), a number finite in the spec's unit but not in mm (1e308 cm) is one located message, exit 1, no traceback;
 nothing of the file but an accepted column name is quoted. The oracle target: the PUMA's tool at a known q."""
 
 import csv
@@ -39,14 +39,15 @@ BAD = [  # (header, row, expected issue after "targets:")
     ("name,x,y,z,rx,ry,rz", '"p,{pose}', "2: not a CSV row the reader can take (unexpected end of data: an unclosed quote?)"),
     ("name,x,y,z,rx,ry,rz", "p,,{pose_short}", "2:2: x: empty value"),
     ("name,x,y,z,rx,ry,rz", "p,{pose_short},inf", "2:7: rz: not a finite number (nan or an infinity)"),
-    ("name,x,y,z,rx,ry,rz", "p,1e308,{pose_short}", "2: x: farther than any robot reaches (more than 100000 cm, a kilometre, from the world origin)"),
+    ("name,x,y,z,rx,ry,rz", "p,1e7,{pose_short}", "2: x: farther than any robot reaches (more than 100000 cm, a kilometre, from the world origin)"),
+    ("name,x,y,z,rx,ry,rz", "p,1e308,{pose_short}", "2:2: x: too large: infinite in mm, armcal's internal unit"),  # finite in cm
     ("name,x,y,z,rx,ry,rz,root:x:0:0:secret-" + "z" * 40, "p,{pose},1", "1:8: unknown column 8 (a header of 58 characters that is no column name, not shown). "
      "Known columns: x, y, z, rx, ry, rz, name, q1, q2, q3, q4, q5, q6."),
 ]
 
 
 @pytest.mark.parametrize("header, row, issue", BAD, ids=["doubled", "q-beyond-dof", "misspelt", "extra-field", "short-row", "seed-columns-partial",
-                                                         "seed-row-partial", "seed-outside-limits", "unclosed-quote", "empty", "infinite", "beyond-a-kilometre",
+                                                         "seed-row-partial", "seed-outside-limits", "unclosed-quote", "empty", "infinite", "beyond-a-kilometre", "infinite-in-mm",
                                                          "not-echoed"])
 def test_a_mistake_in_the_targets_is_one_located_message(puma, header, row, issue):
     loaded, pose = puma

@@ -132,8 +132,9 @@ def _plain(node: Any, loc: Loc, document: _Document, budget: list[int]) -> Any:
         out = {}
         for key in node:
             key_loc = (*loc, str(key))
-            _record(document.keys, key_loc, node.lc.key(key))
-            _record(document.values, key_loc, node.lc.value(key))
+            mark = (node.lc.data or {}).get(key)  # None for a key merged in (<<: *anchor): located at its mapping
+            _record(document.keys, key_loc, mark[0:2] if mark else None)
+            _record(document.values, key_loc, mark[2:4] if mark else None)
             out[str(key)] = _plain(node[key], key_loc, document, budget)
         return out
     if isinstance(node, CommentedSeq):

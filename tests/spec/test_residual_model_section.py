@@ -90,3 +90,20 @@ def test_a_correction_that_moves_a_target_out_of_reach_says_so(tmp_path):
     text, unreached, _, note = compensate(loaded, None, TARGETS, "targets")
     assert unreached == ["t1 (no inverse-kinematics solution with the learned correction)"], unreached
     assert "0 of 0 solved targets in full" in note
+
+
+@pytest.mark.parametrize("noise", ["0.0004", "-1"])
+def test_a_merge_key_is_read_and_a_merged_mistake_is_located_at_its_mapping(tmp_path, noise):
+    """YAML's merge key (<<: *anchor) in the section (as anywhere in a spec: a joint merged from another's) is read;
+    a mistake in a merged value is located at the line of the mapping it is merged into (the loader raised a KeyError
+    traceback: a merged key has no position of its own)."""
+    first = _section(noise=noise).replace("  - {coordinate:", "  - &first {coordinate:")
+    path = _spec(tmp_path, first + "  - {<<: *first, coordinate: base_y}\n")
+    if noise != "-1":
+        assert [c.coordinate for c in load_spec(path).spec.residual_model.coordinates] == ["base_z", "base_y"]
+        return
+    with pytest.raises(SpecError) as caught:
+        load_spec(path)
+    merged = len(path.read_text().splitlines())
+    assert [(i.field, i.line) for i in caught.value.issues] == [
+        ("residual_model.coordinates[0].noise_variance", merged - 1), ("residual_model.coordinates[1].noise_variance", merged)]

@@ -128,6 +128,7 @@ def test_missing_file_is_a_user_error():
             "effects[1]",
             "this thermal_drift effect is already declared as entry 1",
         ),
+        ("effects:\n  - {type: thermal_drift, coefficient: 'nan'}\n", "effects[0].coefficient", "Expected a finite number, got nan."),  # quoted
     ],
 )
 def test_effects_must_fit_the_device_and_be_declared_once(tmp_path, addition, field, message):

@@ -10,6 +10,7 @@ from pydantic import ValidationError
 from armcal.kinematics.params import parameter_set
 from armcal.spec import LoadedSpec
 from armcal.spec.checks import residual_model_problems
+from armcal.spec.loader import plain_message
 from armcal.support.errors import UserError
 from armcal.spec.learned import ResidualModelSection, section_of
 from armcal.support.units import from_internal
@@ -52,10 +53,12 @@ def learned_section(loaded: LoadedSpec, results: dict | None) -> ResidualModelSe
         return None
     try:
         model = ResidualModelSection.model_validate(section)
-        problems = list(residual_model_problems(model, loaded.spec.robot))
-    except ValidationError as exc:
-        problems = [(("residual_model", *error["loc"]), error["msg"]) for error in exc.errors()]
-    if problems:
-        loc, message = problems[0]
+    except ValidationError as exc:  # a model armcal did not write (the file was edited)
+        error = exc.errors()[0]
+        loc = ("residual_model", *error["loc"])
+        raise UserError(f"the run's results.json: {'.'.join(map(str, loc))}: {plain_message(error, loc).rstrip('.')} (not a model armcal writes)") from None
+    problem = next(residual_model_problems(model, loaded.spec.robot), None)
+    if problem is not None:
+        loc, message = problem
         raise UserError(f"the run's results.json: {'.'.join(map(str, loc))}: {message} (not a model of this calibrated spec's robot)")
     return model

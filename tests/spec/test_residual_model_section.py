@@ -13,7 +13,8 @@ from armcal.commands.run import residual_model_note
 from armcal.export.compensation import compensate
 from armcal.results.calibrated import calibrated_yaml
 from armcal.spec import load_spec
-from armcal.support.errors import SpecError
+from armcal.support.errors import SpecError, UserError
+from armcal.export.parameters import learned_section
 
 ROW = "[0.1, 0.2, 0.3, 0.4, 0.5, 0.6]"
 TARGETS = "name,x,y,z,rx,ry,rz\nt1,600,150,300,0,90,0\n"
@@ -107,3 +108,18 @@ def test_a_merge_key_is_read_and_a_merged_mistake_is_located_at_its_mapping(tmp_
     merged = len(path.read_text().splitlines())
     assert [(i.field, i.line) for i in caught.value.issues] == [
         ("residual_model.coordinates[0].noise_variance", merged - 1), ("residual_model.coordinates[1].noise_variance", merged)]
+
+
+@pytest.mark.parametrize("edit, message", [
+    ({"targets": [float("nan"), 0.02]}, "residual_model.coordinates.0.targets.0: Expected a finite number, got nan (not a model armcal writes)"),
+    ({"length_scales": [1, 1]}, "residual_model.coordinates.0.length_scales: 2 length scales for 6 joints: one per joint (not a model of this calibrated spec's robot)"),
+])
+def test_results_jsons_edited_model_is_one_plain_message(tmp_path, edit, message):
+    """A run's folder without the section takes results.json's model: an edit is one plain sentence (pydantic's 'Value
+    error, ' prefix and 'another robot' for a NaN were shown), naming the field."""
+    coordinate = {"coordinate": "base_x", "inputs": [[0.1] * 6, [0.2] * 6], "targets": [0.01, 0.02], "signal_variance": 0.01,
+                  "length_scales": [1] * 6, "noise_variance": 0.0004, **edit}
+    results = {"residual_model": {"kind": "gp", "outside_fraction": 0.5, "joint_units": ["rad"] * 6, "model": [coordinate]}}
+    with pytest.raises(UserError) as caught:
+        learned_section(load_spec(_spec(tmp_path, "")), results)
+    assert str(caught.value) == f"the run's results.json: {message}"

@@ -188,12 +188,18 @@ class ResidualModel:
                 outside[at] = ~inside
         if len(placed.points) and set(BASE) <= set(self.coordinates):
             at = placed.points
-            predicted = [self.coordinates[name].predict(q[res.sample[at[:, 0]]]) for name in BASE]
-            inside = np.stack([p[2] for p in predicted], axis=1)  # (n, 3): per base coordinate
-            turned = np.einsum("nij,nj->ni", placed.turn, np.where(inside, np.stack([p[0] for p in predicted], axis=1), 0.0))
-            change[at] = turned / res.sigma[at]
+            shift, inside = self.point_shift(q[res.sample[at[:, 0]]])
+            change[at] = np.einsum("nij,nj->ni", placed.turn, shift) / res.sigma[at]
             outside[at] = ~inside  # counted per base coordinate, three to a point
         return change, outside
+
+    def point_shift(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(shift (N, 3), inside (N, 3)): the learned error of the measured point (measured - predicted, the robot's
+        base frame) at joint values ``q``, zero in a base coordinate outside the calibrated region, and where it is
+        inside. The model must hold base_x, base_y and base_z."""
+        predicted = [self.coordinates[name].predict(q) for name in BASE]
+        inside = np.stack([p[2] for p in predicted], axis=1)
+        return np.where(inside, np.stack([p[0] for p in predicted], axis=1), 0.0), inside
 
 
 @dataclass(frozen=True)
@@ -352,8 +358,7 @@ def corrected(model: ResidualModel, data: Measurements, turns: dict, device) -> 
     if set(BASE) <= set(model.coordinates) and set(POINT) <= set(readings):
         stations = [device.station(key) for key in data.keys]
         rows = np.flatnonzero(known & np.array([device.target(k) is not None and s in turns for k, s in zip(data.keys, stations)], dtype=bool))
-        predicted = [model.coordinates[name].predict(data.q[rows]) for name in BASE]
-        shift = np.where(np.stack([p[2] for p in predicted], axis=1), np.stack([p[0] for p in predicted], axis=1), 0.0)
+        shift, _ = model.point_shift(data.q[rows])
         turned = np.einsum("nij,nj->ni", np.array([turns[stations[i]] for i in rows]).reshape(-1, 3, 3), shift)
         for k, name in enumerate(POINT):
             readings[name][rows] -= turned[:, k]

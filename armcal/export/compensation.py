@@ -122,12 +122,12 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     model = stored_model(section) if section is not None and set(BASE) <= {c.coordinate for c in section.coordinates} else None
     solved = found.copy()  # without the learned correction
     if model is not None:
-        command, trusted = _with_learned_point(kinematics, model, goals, reached, found, command, deviation, error_function)
+        command, shift, trusted = _with_learned_point(kinematics, model, goals, reached, found, command, deviation, error_function)
     inside = ik.within_limits(kinematics, command)
     error = np.full(len(goals), np.nan)
     actual = poses(command + deviation(command), kinematics.parameters.nominal)[:, :3, 3]
     if model is not None:
-        actual = actual + _learned_shift(model, command)[0]
+        actual = actual + shift
     error[found] = np.linalg.norm(actual[found] - goals[found, :3], axis=1)
     nominal = _nominal(kinematics, results)
     corrected = poses(command, nominal) if nominal is not None else None
@@ -167,24 +167,16 @@ def _through_joint_effects(reached: np.ndarray, deviation) -> np.ndarray:
     return command
 
 
-def _learned_shift(model: ResidualModel, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(delta (N, 3), trusted (N, 3)): the learned error of the measured point (measured - predicted, the robot's base
-    frame, mm) at commands ``Q``, zero in a coordinate outside the calibrated region, and where it is inside."""
-    predicted = [model.coordinates[name].predict(Q) for name in BASE]
-    trusted = np.stack([inside for _, _, inside in predicted], axis=1)
-    return np.where(trusted, np.stack([mean for mean, _, _ in predicted], axis=1), 0.0), trusted
-
-
 def _with_learned_point(kinematics: KinematicModel, model: ResidualModel, goals: np.ndarray, reached: np.ndarray, found: np.ndarray,
-                        command: np.ndarray, deviation, error: ca.Function) -> tuple[np.ndarray, np.ndarray]:
-    """(command (N, n), trusted (N, 3)): the command whose calibrated pose plus the learned correction delta(command)
+                        command: np.ndarray, deviation, error: ca.Function) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(command (N, n), shift (N, 3), trusted (N, 3)): the command whose calibrated pose plus the learned correction delta(command)
     is the goal's position, orientation untouched: the fixed point goal - delta(q) -> q* (inverse kinematics from
     the q* before) -> q (through the joint-side effects). delta varies slowly with q, so each step shrinks the error by
     about |d delta / dq| / |dp / dq| (a 0.1 mm change per rad against ~500 mm per rad: a few steps). ``found``: the
     goals solved without it (updated in place where the moved goal has no solution)."""
     reached = reached.copy()
     for _ in range(FIXED_POINT_STEPS if found.any() else 0):
-        shift, _ = _learned_shift(model, command)
+        shift, _ = model.point_shift(command)
         moved = goals.copy()
         moved[:, :3] -= shift
         solved = ik.solve(kinematics, moved[found], reached[found], halvings=ik.SAFE_HALVINGS, error=error)
@@ -193,7 +185,7 @@ def _with_learned_point(kinematics: KinematicModel, model: ResidualModel, goals:
         previous, command = command, _through_joint_effects(reached, deviation)
         if not found.any() or np.max(np.abs(command - previous)[found]) < FIXED_POINT_TOLERANCE:
             break
-    return command, _learned_shift(model, command)[1]
+    return command, *model.point_shift(command)
 
 
 def _learned_status(trusted: np.ndarray) -> str:

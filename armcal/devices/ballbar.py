@@ -16,11 +16,13 @@ from typing import ClassVar, Literal
 from pydantic import Field
 
 from armcal.devices.base import Channel, DeviceModel, Key, declared
+from armcal.effects.effect_type import EffectType
 from armcal.effects.library import EffectSpec
 from armcal.kinematics import ik
 from armcal.kinematics.params import ParameterSet, parameter_entry, point_entries
 from armcal.kinematics.transforms import on_sphere
-from armcal.spec_parts.base import Length, LengthParam
+from armcal.spec_parts.base import Length, LengthParam, Parameter, SpecModel
+from armcal.spec_parts.robot import Offset
 from armcal.spec_parts.starter import mm
 from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
 
@@ -29,6 +31,55 @@ DEFAULT_LATITUDES = (10.0, 85.0)  # degrees above a pivot, where the spec has no
 TRAVEL_USED = 0.8  # of the LVDT travel that random bar lengths spread over (mid-travel +- 40 %)
 TILT = 0.3  # random tilt of a random pose's sphere axis about the shells' axis (norm of a normal perturbation)
 TRAVEL_KEYS = "device.travel, device.length (the reading must stay within travel/2 of mid-travel)"
+
+
+class BallbarLength(SpecModel):
+    """An offset of the ball-bar's length."""
+
+    type: Literal["ballbar_length"]
+    offset: LengthParam = Parameter(value=0.0)
+
+
+class BallbarLengthType(EffectType):
+    """ballbar_length: an offset added to every length reading."""
+
+    name = "ballbar_length"
+    spec_model = BallbarLength
+
+    def fields(self, effect):
+        return [("offset", "length")]
+
+    def reading(self, effect, channel, reading, value):
+        return reading + value("offset")
+
+
+BALLBAR_LENGTH = BallbarLengthType()
+
+
+class PivotOffset(Offset):
+    """A displacement of one ball-bar pivot."""
+
+    type: Literal["pivot_offset"]
+    x: LengthParam = Parameter(value=0.0)
+    y: LengthParam = Parameter(value=0.0)
+    z: LengthParam = Parameter(value=0.0)
+    pivot: str = Field(description="the pivot that moved (from device.pivots)")
+
+
+class PivotOffsetType(EffectType):
+    """pivot_offset: a displacement of one pivot, added to its position pivot.<name>.x, y, z."""
+
+    name = "pivot_offset"
+    spec_model = PivotOffset
+
+    def fields(self, effect):
+        return [("x", "length"), ("y", "length"), ("z", "length")]
+
+    def device_shift(self, effect, parameters, value):
+        return {parameters.index(f"pivot.{effect.pivot}.{c}"): value(c) for c in "xyz"}
+
+
+PIVOT_OFFSET = PivotOffsetType()
 
 
 class BallBar(DeviceSpec):
@@ -45,7 +96,7 @@ class BallBar(DeviceSpec):
     noise_groups: list[Literal["kind", "target", "pairing"]] = Field(["kind"], description=GROUPS_HELP)
 
     procedures: ClassVar[tuple[str, ...]] = ("shells", "poses")
-    instrument_effects: ClassVar[tuple[str, ...]] = ("ballbar_length", "pivot_offset")
+    instrument_effects: ClassVar[tuple[EffectType, ...]] = (BALLBAR_LENGTH, PIVOT_OFFSET)
     target_field: ClassVar[str] = "spheres"
     held_out_metric: ClassVar[str] = "bar-length error"
 
@@ -62,7 +113,7 @@ class BallBar(DeviceSpec):
             yield (*loc, "extension"), f"extension rod '{procedure.extension}' is not in device.extension_rods"
 
     def check_effect(self, effect, loc):
-        if effect.type == "pivot_offset" and effect.pivot not in self.pivots:
+        if isinstance(effect, PivotOffset) and effect.pivot not in self.pivots:
             yield (*loc, "pivot"), f"pivot '{effect.pivot}' is not in device.pivots"
 
     def parameter_location(self, name: str) -> list[str]:
@@ -160,8 +211,8 @@ class BallBarModel(DeviceModel):
         return {"pivot": set(self.spec.pivots), "sphere": set(self.spec.spheres), "extension": set(self.spec.extension_rods) | {""}}
 
     def candidate_effects(self, free: set[str]) -> list[EffectSpec]:
-        out = [] if "bar.length" in free else [EffectSpec("ballbar_length")]
-        return out + [EffectSpec("pivot_offset", pivot=p) for p in self.spec.pivots if not any(f"pivot.{p}.{c}" in free for c in "xyz")]
+        out = [] if "bar.length" in free else [EffectSpec(BALLBAR_LENGTH)]
+        return out + [EffectSpec(PIVOT_OFFSET, pivot=p) for p in self.spec.pivots if not any(f"pivot.{p}.{c}" in free for c in "xyz")]
 
     def centre(self, key: Key, values: dict[str, float]) -> np.ndarray:
         return np.array([values[f"pivot.{key[0]}.{c}"] for c in "xyz"])

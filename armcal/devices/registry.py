@@ -1,4 +1,5 @@
-"""The registry of instruments: one entry per measuring method, its measurement model (which names its spec section).
+"""The registry of instruments: one entry per measuring method, its measurement model (which names its spec section);
+and the whole effect vocabulary, the effects' registry with the instruments' own effect types.
 
 Nothing outside armcal/devices/ names an instrument: the spec's ``device`` union, the
 data files' columns, the campaign's simulation, the diagnosis' instrument-side
@@ -14,6 +15,8 @@ from armcal.devices.sonic import SonicModel
 from armcal.devices.sphere_socket import SphereSocketModel
 from armcal.devices.theodolite import TheodoliteModel
 from armcal.devices.tracker import TrackerModel
+from armcal.effects.effect_type import EffectType
+from armcal.effects.registry import effect_types
 
 INSTRUMENTS: dict[str, type[DeviceModel]] = {model.type: model for model in (SonicModel, BallBarModel, TheodoliteModel, TrackerModel, SphereSocketModel, PlaneContactModel)}
 
@@ -25,4 +28,12 @@ def instruments_where(test) -> list[str]:
 
 def accepting(effect_type: str) -> list[str]:
     """The instruments an instrument-side effect acts on (none: an effect on the robot's side)."""
-    return instruments_where(lambda section: effect_type in section.instrument_effects)
+    return instruments_where(lambda section: effect_type in {t.name for t in section.instrument_effects})
+
+
+def vocabulary() -> dict[str, EffectType]:
+    """Every effect type by name: the effects' registry (plug-ins included), then the instruments' own, in registry order."""
+    out = {t.name: t for t in effect_types()}
+    for model in INSTRUMENTS.values():
+        out.update({t.name: t for t in model.section.instrument_effects if t.name not in out})
+    return out

@@ -23,12 +23,14 @@ import numpy as np
 from pydantic import Field, ValidationInfo, WrapValidator
 
 from armcal.devices.base import Channel, DeviceModel, Key, transform_point
+from armcal.effects.effect_type import EffectType
 from armcal.effects.library import EffectSpec
+from armcal.effects.types.sensor_scale import SENSOR_SCALE
 from armcal.support.errors import UserError
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, point_entries, pose_entries
 from armcal.kinematics.transforms import xyz_zyx
-from armcal.spec_parts.base import Length, Number, ScaleParam, SpecModel, fixed
+from armcal.spec_parts.base import Length, LengthParam, Number, Parameter, ScaleParam, SpecModel, fixed
 from armcal.spec_parts.starter import mm
 from armcal.spec_parts.instrument import AUTO, ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, Point, is_auto
 from armcal.spec_parts.robot import Pose
@@ -36,6 +38,30 @@ from armcal.spec_parts.robot import Pose
 PRIMARY = ("A", "B", "C")  # microphones used to triangulate (s_1, s_2, s_3 of 6.1-6.6)
 ROOM_TEMPERATURE = 21.1  # degC, 70 F: the sonic digitizer's nominal conditions
 HELD_OUT_SHIFT = 20.0  # deg: the starter's held-out sweeps start this far from the maker's home on every joint
+
+
+class RangeBias(SpecModel):
+    """A constant bias of one microphone's slant range (Stone's unidentified prototype limit)."""
+
+    type: Literal["range_bias"]
+    microphone: str = Field(description="microphone whose range is biased (from device.microphones)")
+    bias: LengthParam = Parameter(value=0.0)
+
+
+class RangeBiasType(EffectType):
+    """range_bias: a constant added to one microphone's slant range s_<microphone>."""
+
+    name = "range_bias"
+    spec_model = RangeBias
+
+    def fields(self, effect):
+        return [("bias", "length")]
+
+    def reading(self, effect, channel, reading, value):
+        return reading + value("bias") if channel.name == f"s_{effect.microphone}" else reading
+
+
+RANGE_BIAS = RangeBiasType()
 
 
 # The speed of sound (App. E)
@@ -164,7 +190,7 @@ class SonicDigitizer(DeviceSpec):
     scale: ScaleParam = fixed(1.0)
 
     procedures: ClassVar[tuple[str, ...]] = ("circle_point",)
-    instrument_effects: ClassVar[tuple[str, ...]] = ("sensor_scale", "range_bias")
+    instrument_effects: ClassVar[tuple[EffectType, ...]] = (SENSOR_SCALE, RANGE_BIAS)
     fixes_positions: ClassVar[bool] = True
 
     def check(self, spec):
@@ -173,7 +199,7 @@ class SonicDigitizer(DeviceSpec):
                 yield ("device", "calibration_rods", i, "microphone"), f"microphone '{rod.microphone}' is not in device.microphones"
 
     def check_effect(self, effect, loc):
-        if effect.type == "range_bias" and effect.microphone not in self.microphones:
+        if isinstance(effect, RangeBias) and effect.microphone not in self.microphones:
             yield (*loc, "microphone"), f"microphone '{effect.microphone}' is not in device.microphones"
 
     def parameter_location(self, name: str) -> list[str]:
@@ -405,8 +431,8 @@ class SonicModel(DeviceModel):
         return {str(link): names[0] for link, names in on_link.items() if len(names) == 1 and link >= 1}
 
     def candidate_effects(self, free: set[str]) -> list[EffectSpec]:
-        out = [] if "sonic.scale" in free else [EffectSpec("sensor_scale")]
-        return out + ([EffectSpec("range_bias", microphone=m) for m in self.microphones] if self.mode == "ranges" else [])
+        out = [] if "sonic.scale" in free else [EffectSpec(SENSOR_SCALE)]
+        return out + ([EffectSpec(RANGE_BIAS, microphone=m) for m in self.microphones] if self.mode == "ranges" else [])
 
     def simulated_readings(self, key: Key, values: np.ndarray, poses: np.ndarray, pd: np.ndarray, settings, rng) -> tuple:
         """Raw slant ranges through a vertically stratified air (B-3), N_avg noisy quantised readings averaged; the

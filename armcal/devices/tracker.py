@@ -21,7 +21,9 @@ from typing import ClassVar, Literal
 from pydantic import Field
 
 from armcal.devices.base import Channel, DeviceModel, Key, declared
+from armcal.effects.effect_type import EffectType
 from armcal.effects.library import EffectSpec
+from armcal.effects.types.sensor_scale import SENSOR_SCALE
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.kinematics.transforms import POSE_FIELDS, pose_from_matrix, rigid_registration
@@ -73,7 +75,7 @@ class Tracker(DeviceSpec):
         return super().base_frame_free(free) or any(name.startswith("station.") for name in free)
 
     procedures: ClassVar[tuple[str, ...]] = ("poses", "circle_point")
-    instrument_effects: ClassVar[tuple[str, ...]] = ("sensor_scale",)
+    instrument_effects: ClassVar[tuple[EffectType, ...]] = (SENSOR_SCALE,)
     fixes_positions: ClassVar[bool] = True
     reads_positions: ClassVar[bool] = True
     locates_targets: ClassVar[bool] = True
@@ -186,7 +188,7 @@ class TrackerModel(DeviceModel):
         return {**super().key_names(robot), "use": {"", *USES}}
 
     def candidate_effects(self, free: set[str]) -> list[EffectSpec]:
-        return [] if "tracker.scale" in free else [EffectSpec("sensor_scale")]
+        return [] if "tracker.scale" in free else [EffectSpec(SENSOR_SCALE)]
 
     def registered(self, theta: np.ndarray, names: tuple[str, ...], free: set[str], kinematics, data) -> np.ndarray | None:
         """A free tracker-to-base transform, one per station, registered from the data: the rigid registration (Kabsch)

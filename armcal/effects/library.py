@@ -29,9 +29,13 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from armcal.kinematics.masses import LumpedMass
 from armcal.kinematics.params import ParameterInfo
+
+if TYPE_CHECKING:
+    from armcal.effects.effect_type import EffectType
 
 MOMENT_TERM = re.compile(r"^m([xyz])([1-9][0-9]*)$")  # a mass-moment product: axis of frame F_k, link k
 AXIS_WEIGHT = "w"  # a prismatic joint's mass-moment product: deflection along the axis under the weight beyond it
@@ -57,9 +61,9 @@ def is_product(name: str) -> bool:
 
 @dataclass(frozen=True)
 class EffectSpec:
-    """One effect: what it is, what it acts on, and its parameters' nominal values."""
+    """One effect: its type object (effects/effect_type.py), what it acts on, and its parameters' nominal values."""
 
-    type: str
+    kind: EffectType
     joint: int | None = None  # 1-based
     order: int | None = None  # harmonic order (0 = a constant: absorbed by the joint offset)
     ratio: float = 1.0  # gear ratio for motor-side harmonics
@@ -73,22 +77,25 @@ class EffectSpec:
     held: frozenset[str] = frozenset()  # fields the spec holds at their value (vary: false)
 
     @property
+    def type(self) -> str:
+        """The type's name, as in a spec and in results.json."""
+        return self.kind.name
+
+    @property
     def source_joint(self) -> int | None:
         """joint_coupling: the driving joint (1-based), the spec's ``from``."""
-        return int(self.source[1:]) if self.type == "joint_coupling" else None
+        return self.kind.source_joint(self)
 
     @property
     def terms(self) -> tuple[str, ...]:
         """joint_compliance (form moments) and joint_bending: the mass-moment products, the keys of ``values``."""
-        return tuple(k for k in self.values if is_product(k)) if self.type in ("joint_compliance", "joint_bending") else ()
+        return tuple(k for k in self.values if is_product(k)) if self.kind.products else ()
 
     @property
     def form(self) -> str | None:
         """joint_compliance: "moments" when it has products, else "masses" (c x torque of lumped masses); None for
         the other types."""
-        if self.type != "joint_compliance":
-            return None
-        return "moments" if self.terms else "masses"
+        return self.kind.form(self)
 
     @property
     def followed_joint(self) -> int | None:
@@ -116,20 +123,7 @@ class EffectSpec:
 
     def fields(self) -> list[tuple[str, str]]:
         """(field, kind) of the effect's parameters."""
-        if self.terms or self.type == "joint_bending":
-            return [(t, "length" if t == AXIS_WEIGHT else "angle") for t in self.terms]
-        return {
-            "encoder_scale": [("scale", "scale")],
-            "gear_harmonic": [("sin", "angle"), ("cos", "angle")],
-            "joint_compliance": [("compliance", "compliance")],
-            "joint_coupling": [("coefficient", "scale")],
-            "backlash": [("half_width", "angle")],
-            "thermal_drift": [("coefficient", "per_degC" if self.source == "temperature" else "per_s")],
-            "sensor_scale": [("scale", "scale")],
-            "range_bias": [("bias", "length")],
-            "ballbar_length": [("offset", "length")],
-            "pivot_offset": [("x", "length"), ("y", "length"), ("z", "length")],
-        }[self.type]
+        return self.kind.fields(self)
 
     def parameters(self) -> list[ParameterInfo]:
         return [
@@ -138,18 +132,18 @@ class EffectSpec:
         ]
 
 
-def with_products(type: str, joint: int, terms, values: dict | None = None, **rest) -> EffectSpec:
+def product_fields(terms: tuple[str, ...]) -> list[tuple[str, str]]:
+    """(field, kind) of mass-moment products: angles, a prismatic joint's w a length."""
+    return [(t, "length" if t == AXIS_WEIGHT else "angle") for t in terms]
+
+
+def with_products(kind: EffectType, joint: int, terms, values: dict | None = None, **rest) -> EffectSpec:
     """A moments-form compliance or a bending with the products ``terms`` (0 unless ``values`` gives them)."""
-    return EffectSpec(type, joint=joint, values={t: (values or {}).get(t, 0.0) for t in terms}, **rest)
-
-
-def coupling(joint: int, source_joint: int, **rest) -> EffectSpec:
-    """Joint ``source_joint`` drives joint ``joint``."""
-    return EffectSpec("joint_coupling", joint=joint, source=f"q{source_joint}", **rest)
+    return EffectSpec(kind, joint=joint, values={t: (values or {}).get(t, 0.0) for t in terms}, **rest)
 
 
 def from_spec(effect) -> EffectSpec:
-    """The internal form of a spec effect (values already in internal units).
+    """The internal form of a spec effect (values already in internal units); its spec model carries its type.
 
     Parameters are spec Parameters ({value, vary}; left out: free from 0) except
     joint_compliance's compliance and thermal_drift's coefficient, plain numbers
@@ -157,12 +151,13 @@ def from_spec(effect) -> EffectSpec:
     the products the spec lists (the loader fills in those left out, from the
     robot's joints), each held when it says ``vary: false`` or the effect does.
     """
-    products = effect.type == "joint_bending" or effect.type == "joint_compliance" and effect.form == "moments"
+    kind = effect.effect_type
+    products = kind.lists_products(effect)
     terms = _moment_products(effect) if products else ()
     if products and not terms:
         raise ValueError(f"{effect.type} of joint {effect.joint}: no products (load the spec with its robot to fill them in)")
-    source = f"q{effect.from_joint}" if effect.type == "joint_coupling" else getattr(effect, "source", "temperature")
-    shape = EffectSpec(effect.type, source=source, values=dict.fromkeys(terms, 0.0))
+    source = kind.source(effect)
+    shape = EffectSpec(kind, source=source, values=dict.fromkeys(terms, 0.0))
     values, held = {}, set()
     for name, _ in shape.fields():
         parameter = (effect.model_extra or {}).get(name) if MOMENT_TERM.match(name) else getattr(effect, name)
@@ -172,7 +167,7 @@ def from_spec(effect) -> EffectSpec:
             held.add(name)
     masses = tuple(LumpedMass(m.link, m.mass, (m.x, m.y, m.z)) for m in getattr(effect, "masses", ()))
     return EffectSpec(
-        type=effect.type,
+        kind=kind,
         joint=getattr(effect, "joint", None),
         order=getattr(effect, "order", None),
         ratio=getattr(effect, "ratio", 1.0),
@@ -197,10 +192,7 @@ def needs(effects: list[EffectSpec]) -> set[str]:
     """Extra data columns the effects need: dir, temperature, t."""
     out = set()
     for effect in effects:
-        if effect.type == "backlash":
-            out.add("dir")
-        if effect.type == "thermal_drift":
-            out.add("temperature" if effect.source == "temperature" else "t")
+        out |= effect.kind.needs(effect)
     return out
 
 
@@ -210,13 +202,6 @@ def to_spec_dict(effect: EffectSpec, values: dict[str, float]) -> dict:
     for key in ("joint", "order", "microphone", "pivot"):
         if getattr(effect, key) is not None:
             out[key] = getattr(effect, key)
-    if effect.type == "joint_coupling":
-        out["from"] = effect.source_joint
-    if effect.type == "gear_harmonic" and effect.ratio != 1.0:
-        out["ratio"] = effect.ratio
-    if effect.type == "thermal_drift":
-        out["source"] = effect.source
-    if effect.type == "joint_compliance" and effect.form == "moments":
-        out["form"] = "moments"
+    out.update(effect.kind.spec_keys(effect))
     out.update(values)
     return out

@@ -1,4 +1,5 @@
-"""Effects as symbolic terms of the measurement model.
+"""Effects as symbolic terms of the measurement model: ``EffectSet`` asks each effect's type object (one module per
+type, effects/registry.py and the instruments' modules) for its terms, built on the regressors here.
 
 Per sample the model takes extras x = [dir_1..dir_n, t, temperature] besides
 the joint readings q. Joint-side effects add to the joint value the chain sees:
@@ -28,6 +29,7 @@ ball-bar's length, a displacement of one pivot.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Protocol
 
 import casadi as ca
@@ -133,7 +135,7 @@ def torque_masses(kinematics: KinematicModel, own: tuple[LumpedMass, ...] = ()) 
     return own or kinematics.masses or tuple(LumpedMass(k, DEFAULT_LINK_MASS, (0.0, 0.0, 0.0)) for k in range(1, kinematics.dof + 1))
 
 
-def _gravity_torque(frames: ca.SX, joint: int, masses: tuple[LumpedMass, ...]) -> ca.SX:
+def gravity_torque(frames: ca.SX, joint: int, masses: tuple[LumpedMass, ...]) -> ca.SX:
     """Gravity torque (N m) about joint ``joint`` (z of F_{joint-1}) from the masses on links joint..n."""
     frame = lambda k: frames[:, 4 * k : 4 * k + 4]  # noqa: E731
     axis, origin = frame(joint - 1)[:3, 2], frame(joint - 1)[:3, 3]
@@ -145,6 +147,23 @@ def _gravity_torque(frames: ca.SX, joint: int, masses: tuple[LumpedMass, ...]) -
         lever = (centre - origin) / 1000.0  # m
         torque += ca.dot(axis, ca.cross(lever, mass.mass * ca.DM(GRAVITY)))
     return torque
+
+
+class ChainState:
+    """The chain at one sample as the joint-side terms read it: readings q, extras x, robot parameters p, and the frames
+    F_0..F_n (built once, when a term first asks)."""
+
+    def __init__(self, kinematics: KinematicModel, q, x, p):
+        self.kinematics, self.q, self.x, self.p = kinematics, q, x, p
+
+    @cached_property
+    def frames(self):
+        return self.kinematics.frames(self.q, self.p)
+
+
+def _values(effect: EffectSpec, v: dict):
+    """field -> the symbol of the effect's parameter ``<id>.<field>``."""
+    return lambda f: v[f"{effect.id}.{f}"]
 
 
 @dataclass(frozen=True)
@@ -159,39 +178,25 @@ class EffectSet:
 
     def joint_values(self, kinematics: KinematicModel, q, x, p, v: dict):
         """q + the joint-side effects' deviations; ``v`` maps effect parameter names to symbols."""
-        n = kinematics.dof
-        delta = [0] * n
-        frames = None
+        delta = [0] * kinematics.dof
+        chain = ChainState(kinematics, q, x, p)
         for e in self.effects:
             if e.joint is None:
                 continue
-            j, value = e.joint - 1, lambda f, e=e: v[f"{e.id}.{f}"]  # noqa: E731
-            if e.type == "encoder_scale":
-                delta[j] += value("scale") * q[j]
-            elif e.type == "gear_harmonic":
-                phase = e.order * e.ratio * q[j]
-                delta[j] += value("sin") * ca.sin(phase) + value("cos") * ca.cos(phase)
-            elif e.type == "backlash":
-                delta[j] += value("half_width") * x[j]
-            elif e.type == "joint_coupling":
-                delta[j] += value("coefficient") * q[e.source_joint - 1]
-            elif e.type == "joint_compliance":
-                frames = kinematics.frames(q, p) if frames is None else frames
-                if e.form == "moments":
-                    delta[j] += sum(value(t) * moment_regressor(frames, e.joint, t) for t in e.terms)
-                else:
-                    delta[j] += value("compliance") * _gravity_torque(frames, e.joint, torque_masses(kinematics, e.masses))
+            deviation = e.kind.joint_deviation(e, chain, _values(e, v))
+            if deviation is not None:
+                delta[e.joint - 1] += deviation
         return q + ca.vertcat(*delta)
 
     def bent(self, kinematics: KinematicModel, link: int, qv, pv, pose, v: dict):
         """``pose`` (a frame on ``link``) tilted by the bending of every joint up to ``link``, outermost first, so that
         each tilt is about its joint in the chain the inner ones then carry: F_(j-1) B_j F_(j-1)^-1 (...) pose."""
-        bends = sorted((e for e in self.effects if e.type == "joint_bending" and e.joint <= link), key=lambda e: -e.joint)
+        bends = sorted((e for e in self.effects if e.kind.tilts and e.joint <= link), key=lambda e: -e.joint)
         if not bends:
             return pose
         frames = kinematics.frames(qv, pv)
         for e in bends:
-            phi = sum(v[f"{e.id}.{t}"] * bending_regressor(frames, e.joint, t) for t in e.terms)
+            phi = e.kind.tilt(e, frames, _values(e, v))
             R, pivot = _small_rotation(phi), frames[:3, 4 * (e.joint - 1) + 3]
             tilt = ca.vertcat(ca.horzcat(R, pivot - ca.mtimes(R, pivot)), ca.DM([[0, 0, 0, 1]]))
             pose = ca.mtimes(tilt, pose)
@@ -201,9 +206,9 @@ class EffectSet:
         """1 + thermal drift of the robot's lengths."""
         factor = 1
         for e in self.effects:
-            if e.type == "thermal_drift":
-                change = x[dof + 1] - e.reference_temperature if e.source == "temperature" else x[dof]
-                factor += v[f"{e.id}.coefficient"] * change
+            change = e.kind.length_change(e, x, dof, _values(e, v))
+            if change is not None:
+                factor += change
         return factor
 
     def robot_parameters(self, kinematics: KinematicModel, x, p, v: dict):
@@ -212,25 +217,20 @@ class EffectSet:
         return p + (self.length_factor(x, v, kinematics.dof) - 1) * (p * lengths)
 
     def device_parameters(self, device: Instrument, pd, v: dict):
-        """pd with pivot offsets added."""
+        """pd with the instrument-side effects' shifts (a ball-bar pivot's offset)."""
         shift = [0] * len(device.parameters)
         for e in self.effects:
-            if e.type == "pivot_offset":
-                for c in "xyz":
-                    shift[device.parameters.index(f"pivot.{e.pivot}.{c}")] = v[f"{e.id}.{c}"]
+            for index, change in e.kind.device_shift(e, device.parameters, _values(e, v)).items():
+                shift[index] = change
         return pd + ca.vertcat(*shift)
 
     def readings(self, device: Instrument, key: tuple, y, v: dict):
-        """Readings with the instrument-side effects: scale, range bias, ball-bar length offset."""
+        """Readings with the instrument-side effects (a scale, a range's bias, the ball-bar's length offset)."""
         channels = device.channels(key)
         parts = [y[i] for i in range(len(channels))]
         for e in self.effects:
-            if e.type == "sensor_scale":
-                parts = [r * (1 + v[f"{e.id}.scale"]) if c.kind == "length" else r for r, c in zip(parts, channels)]
-            elif e.type == "range_bias":
-                parts = [r + v[f"{e.id}.bias"] if c.name == f"s_{e.microphone}" else r for r, c in zip(parts, channels)]
-            elif e.type == "ballbar_length":
-                parts = [r + v[f"{e.id}.offset"] for r in parts]
+            value = _values(e, v)
+            parts = [e.kind.reading(e, c, r, value) for r, c in zip(parts, channels)]
         return ca.vertcat(*parts)
 
     def measurement_function(self, kinematics: KinematicModel, device: Instrument, key: tuple) -> ca.Function:
@@ -280,5 +280,5 @@ def gravity_torque_function(kinematics: KinematicModel) -> ca.Function:
     """(q, p) -> gravity torque (N m) about every joint from the robot's masses (``torque_masses``), for the evidence plots."""
     q, p = ca.SX.sym("q", kinematics.dof), ca.SX.sym("p", len(kinematics.parameters))
     frames = kinematics.frames(q, p)
-    torques = [_gravity_torque(frames, j, torque_masses(kinematics)) for j in range(1, kinematics.dof + 1)]
+    torques = [gravity_torque(frames, j, torque_masses(kinematics)) for j in range(1, kinematics.dof + 1)]
     return ca.Function("gravity_torque", [q, p], [ca.vertcat(*torques)])

@@ -13,6 +13,7 @@ from armcal.diagnose.loop import HOLDS_OUT
 from armcal.diagnose.residual_model import CARRIED, OUTSIDE, Figures
 from armcal.spec.learned import JOINT_UNIT
 from armcal.evaluate.acceptance import acceptance_block
+from armcal.devices.registry import vocabulary
 from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
 from armcal.evaluate.residuals import before_after, distance_before_after, improvement, reading_noise, readings_residuals, residual_unit
@@ -20,7 +21,6 @@ from armcal.identify.uncertainty import residual_stats
 from armcal.kinematics.parallel_axes import parallel_axes
 from armcal.kinematics.params import joint_kind
 from armcal.spec import LoadedSpec
-from armcal.spec.effect_vocabulary import EFFECT_TYPES
 from armcal.support.units import from_internal
 
 
@@ -37,7 +37,7 @@ def reported_names(calibration: Calibration) -> set[str]:
     if calibration.diagnosis is None:
         return set(names)
     in_model = {p.name for e in calibration.diagnosis.in_model for p in e.parameters()}
-    return {n for n in names if n.split(".")[0] not in EFFECT_TYPES or n in in_model}
+    return {n for n in names if n.split(".")[0] not in vocabulary() or n in in_model}
 
 
 def run_figures(

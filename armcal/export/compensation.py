@@ -38,7 +38,6 @@ from armcal.export.parameters import learned_section
 from armcal.kinematics.params import joint_kind
 from armcal.support.units import factor, to_internal
 
-COMPENSATED = ("encoder_scale", "gear_harmonic", "joint_compliance", "joint_coupling")  # functions of the joints alone
 POSE = ("x", "y", "z", "rx", "ry", "rz")
 POSE_KINDS = dict(zip(POSE, ("length",) * 3 + ("angle",) * 3))  # the spec's length and angle units
 FIXED_POINT_STEPS = 50
@@ -112,8 +111,8 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     joints = list(zip([f"q{i}" for i in range(1, kinematics.dof + 1)], kinematics.joint_types))
     labels, goals, seeds = _targets(targets_text, targets_name, spec)
     effects = [from_spec(e) for e in spec.effects]
-    left_out = sorted({e.id for e in effects if e.type not in COMPENSATED})
-    compensated = EffectSet(tuple(e for e in effects if e.type in COMPENSATED))
+    left_out = sorted({e.id for e in effects if not e.kind.compensated})
+    compensated = EffectSet(tuple(e for e in effects if e.kind.compensated))
     error_function, fk, deviation_function = compiled([ik.error_function(kinematics), kinematics.fk, compensated.joint_deviation_function(kinematics)])
     deviation, poses = _deviation(deviation_function, kinematics, compensated), _poses(fk)
     reached, found = _solutions(kinematics, goals, seeds, error_function)

@@ -11,7 +11,7 @@ sigma_p per coordinate. This model is never the one fitted.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.transforms import compose, rot_x, rot_y, rot_z, trans
 from armcal.effects.library import EffectSpec, LumpedMass, from_spec
 from armcal.effects.measurement import EffectSet, extras_matrix
-from armcal.spec.effect_vocabulary import EFFECT_TYPES
+from armcal.devices.registry import vocabulary
 from armcal.spec.sections import Simulate
 
 
@@ -95,7 +95,7 @@ class TrueRobot:
             "encoder_errors": self.encoder_errors.tolist(),
             "link_errors": [e.tolist() for e in self.link_errors],
             "parameters": dict(zip(self.kinematics.parameters.names, self.p.tolist())),
-            "hidden_effects": [{**asdict(e), "held": sorted(e.held)} for e in self.effects.effects],
+            "hidden_effects": [_record(e) for e in self.effects.effects],
         }
 
 
@@ -112,7 +112,7 @@ def record_problem(record: dict) -> str | None:
         if not isinstance(record["hidden_effects"], list):
             return "its hidden_effects are not a list"
         for effect in record["hidden_effects"]:
-            if not isinstance(effect, dict) or effect.get("type") not in EFFECT_TYPES:
+            if not isinstance(effect, dict) or effect.get("type") not in vocabulary():
                 return "a hidden effect is not one of armcal's effect types"
             _effect(effect)
     except KeyError:
@@ -122,9 +122,17 @@ def record_problem(record: dict) -> str | None:
     return None
 
 
+def _record(effect: EffectSpec) -> dict:
+    """An effect as truth.json holds it: its type's name, then its other fields."""
+    fields = asdict(replace(effect, kind=None))  # the type object is not copied
+    del fields["kind"]
+    return {"type": effect.type, **fields, "held": sorted(effect.held)}
+
+
 def _effect(record: dict) -> EffectSpec:
     masses = tuple(LumpedMass(m["link"], m["mass"], tuple(m["centre"])) for m in record.get("masses", ()))
-    return EffectSpec(**{**record, "masses": masses, "held": frozenset(record.get("held", ()))})
+    fields = {key: value for key, value in record.items() if key != "type"}
+    return EffectSpec(**{**fields, "kind": vocabulary()[record["type"]], "masses": masses, "held": frozenset(record.get("held", ()))})
 
 
 def _inverse_batch(T: np.ndarray) -> np.ndarray:

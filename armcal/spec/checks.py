@@ -15,7 +15,9 @@ from armcal.spec.procedure import CirclePoint
 from armcal.spec_parts.robot import SixParameterRobot
 from armcal.kinematics.params import joint_kind
 from armcal.spec.learned import JOINT_UNIT
-from armcal.spec.effect_vocabulary import JointBending, JointCompliance, JointCoupling
+from armcal.effects.types.joint_bending import JointBending
+from armcal.effects.types.joint_compliance import JointCompliance
+from armcal.effects.types.joint_coupling import JointCoupling
 
 Loc = tuple[str | int, ...]
 Problem = tuple[Loc, str]

@@ -3,14 +3,17 @@ declare: spec/effect_vocabulary.py)."""
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Annotated, Literal
 
 from pydantic import AfterValidator, Field, model_validator
 
 from armcal.spec_parts.base import Angle, Length, Number, SpecModel
-from armcal.spec.effect_vocabulary import DEG, EFFECT_TYPES, Effect
+from armcal.spec.effect_vocabulary import EFFECT_NAMES, Effect
 from armcal.support.units import LENGTH_UNITS
+
+DEG = math.pi / 180.0
 
 STANDS_FOR = {  # the fields `armcal new` and `armcal import-urdf` write stand-ins for (spec/placeholders.py), and what they stand for
     "robot.serial": "the robot's serial number",
@@ -79,7 +82,7 @@ class Diagnose(SpecModel):
     enabled: bool = Field(True, description="run the diagnosis after the fit")
     alpha: float = Field(0.001, gt=0.0, lt=1.0, description="family-wise false-positive rate of a round's score tests")
     max_rounds: int = Field(3, ge=0, description="effects added at most (one per round)")
-    candidates: list[Literal[EFFECT_TYPES]] | None = Field(None, description="effect types tried (default: all the data allow)")  # type: ignore[valid-type]
+    candidates: list[Literal[EFFECT_NAMES]] | None = Field(None, description="effect types tried (default: all the data allow)")  # type: ignore[valid-type]
     harmonic_orders: int = Field(3, ge=1, description="gear harmonics tried up to this order")
     holdout: Literal["kfold", "validation"] = Field(
         "kfold",

@@ -78,7 +78,7 @@ class DeviceSpec(SpecModel):
     instrument: Instrument | None = Field(None, description="the instrument's identity and calibration, printed on the certificate")
 
     procedures: ClassVar[tuple[str, ...]] = ("poses",)  # the procedure types that plan its campaigns
-    instrument_effects: ClassVar[tuple[str, ...]] = ()  # the instrument-side effect types that act on its readings
+    instrument_effects: ClassVar[tuple] = ()  # the instrument-side effect types (effects/effect_type.py) that act on its readings
     reading_kind: ClassVar[str] = "length"  # the kind of its readings residuals are summarised in (length, angle)
     fixes_positions: ClassVar[bool] = False  # its readings fix a target's position (Stone's circle-point features)
     reads_positions: ClassVar[bool] = False  # its readings are a target's x, y, z in its own frame (rigid registration)

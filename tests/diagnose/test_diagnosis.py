@@ -7,6 +7,7 @@ from conftest import SPECS
 from armcal.devices import device_model
 from armcal.diagnose.loop import run_diagnosis
 from armcal.diagnose.score import score_tests
+from armcal.devices.registry import vocabulary
 from armcal.effects.library import EffectSpec
 from armcal.effects.measurement import EffectSet
 from armcal.identify.fit import fit
@@ -75,14 +76,14 @@ def _hidden(tmp_path, base, effect: EffectSpec, extra="") -> tuple:
 
 
 CASES = [
-    (TRACKER, EffectSpec("encoder_scale", joint=2)),
-    (TRACKER, EffectSpec("gear_harmonic", joint=3, order=2)),
-    (TRACKER, EffectSpec("joint_compliance", joint=2)),
-    (TRACKER, EffectSpec("backlash", joint=2)),
-    (TRACKER, EffectSpec("thermal_drift")),
-    (SONIC, EffectSpec("sensor_scale")),  # the fixed microphone geometry is the length reference
-    (SONIC, EffectSpec("range_bias", microphone="B")),
-    (BALLBAR, PIVOT := EffectSpec("pivot_offset", pivot="chuck2")),
+    (TRACKER, EffectSpec(vocabulary()["encoder_scale"], joint=2)),
+    (TRACKER, EffectSpec(vocabulary()["gear_harmonic"], joint=3, order=2)),
+    (TRACKER, EffectSpec(vocabulary()["joint_compliance"], joint=2)),
+    (TRACKER, EffectSpec(vocabulary()["backlash"], joint=2)),
+    (TRACKER, EffectSpec(vocabulary()["thermal_drift"])),
+    (SONIC, EffectSpec(vocabulary()["sensor_scale"])),  # the fixed microphone geometry is the length reference
+    (SONIC, EffectSpec(vocabulary()["range_bias"], microphone="B")),
+    (BALLBAR, PIVOT := EffectSpec(vocabulary()["pivot_offset"], pivot="chuck2")),
 ]
 
 
@@ -118,7 +119,7 @@ def test_which_pivot_moved_is_reported_as_ambiguous(hidden_pivot):
 
 def test_an_offset_the_geometry_absorbs_is_not_distinguishable_never_found(tmp_path):
     """A bar-length offset on Goswami's shells is a change of the six-parameter geometry: reported, not added."""
-    diagnosis = _hidden(tmp_path, BALLBAR, EffectSpec("ballbar_length"))
+    diagnosis = _hidden(tmp_path, BALLBAR, EffectSpec(vocabulary()["ballbar_length"]))
     test = next(t for t in diagnosis.rounds[0].tests if t.effect.type == "ballbar_length")
     assert not test.distinguishable
     assert all(e.type != "ballbar_length" for e in diagnosis.added)
@@ -142,7 +143,7 @@ def test_a_constant_offset_proposed_as_harmonic_order_0_is_not_distinguishable(t
     """cos(0 q) is the joint's offset, sin(0 q) nothing: the geometry absorbs both, whatever the data."""
     loaded = _spec(tmp_path, TRACKER, "simulate: {seed: 3}\n")
     kinematics, device, calibration, _ = _data(loaded, tmp_path)
-    offset = EffectSpec("gear_harmonic", joint=2, order=0, free=False)
+    offset = EffectSpec(vocabulary()["gear_harmonic"], joint=2, order=0, free=False)
     problem = build_problem(kinematics, device, calibration, EffectSet((offset,)))
     result = fit(problem, Fit())
     r, J = problem.evaluate(result.theta)

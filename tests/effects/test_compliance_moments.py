@@ -16,7 +16,6 @@ from round_trip import round_trip
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
-from armcal.diagnose.candidates import compliance_candidates
 from armcal.diagnose.loop import run_diagnosis
 from armcal.diagnose.calibration import calibration_problem
 from armcal.effects.library import EffectSpec, LumpedMass, from_spec, moment_terms, with_products
@@ -25,7 +24,8 @@ from armcal.support.errors import SpecError
 from armcal.identify.fit import design_identifiability
 from armcal.kinematics.compiler import compile_robot
 from armcal.spec import load_spec
-from armcal.spec.effect_vocabulary import EFFECT_TYPES
+from armcal.devices.registry import vocabulary
+from armcal.effects.types.joint_compliance import JOINT_COMPLIANCE
 from armcal.spec.sections import Diagnose, Fit
 
 NOMINAL = {"rows": [(t * DEG, d, a, al * DEG, 0.0) for t, d, a, al in ROBOTS["puma560"]["dh"]]}
@@ -63,10 +63,10 @@ def test_the_moments_form_is_the_compliance_times_the_torque_of_the_masses(tmp_p
     expected = C * gravity_torque(frames(NOMINAL, q), joint, PUMA_LAYOUT)
     products = regrouped_products(joint, PUMA_LAYOUT, C)
     forms = {
-        "moments": with_products("joint_compliance", joint, moment_terms(joint, 6), products),
-        "masses": EffectSpec("joint_compliance", joint=joint, values={"compliance": C},
+        "moments": with_products(vocabulary()["joint_compliance"], joint, moment_terms(joint, 6), products),
+        "masses": EffectSpec(vocabulary()["joint_compliance"], joint=joint, values={"compliance": C},
                              masses=tuple(LumpedMass(k, m, c) for k, (m, c) in PUMA_LAYOUT.items())),
-        "default masses": EffectSpec("joint_compliance", joint=joint, values={"compliance": C}),
+        "default masses": EffectSpec(vocabulary()["joint_compliance"], joint=joint, values={"compliance": C}),
     }
     x = np.zeros((extras_size(6), len(q)))
     for name, effect in forms.items():
@@ -117,7 +117,7 @@ def test_the_base_set_keeps_as_many_products_as_the_torque_has_gravity_parameter
     assert rank == 10 and len(kept) == rank, (kept, held)
     # a product along the joint's own axis has no torque; the others are combinations of the kept ones
     assert all(why == "does not affect the measurements" or why.startswith("redundant with joint_compliance.j2.") for why in held.values()), held
-    counts = {c.joint: len(c.terms) for c in compliance_candidates(kinematics, data)}
+    counts = {c.joint: len(c.terms) for c in JOINT_COMPLIANCE.candidates(kinematics, data, 3)}
     assert counts == {j: _torque_rank(j, data.q) for j in range(2, 7)} == {2: 10, 3: 8, 4: 6, 5: 4, 6: 2}
 
 
@@ -213,7 +213,7 @@ def test_bending_is_the_weight_moment_tilting_the_links_beyond_the_joint(tmp_pat
     kinematics, device = compile_robot(loaded.spec.robot), device_model(loaded.spec)
     q = np.random.default_rng(3).uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (100, 6))
     K = 2e-4  # rad / (N m): a 2.5 kg payload 0.13 m off tilts the flange by about a milliradian
-    effect = with_products("joint_bending", 5, moment_terms(5, 6), regrouped_products(5, PUMA_LAYOUT, K))
+    effect = with_products(vocabulary()["joint_bending"], 5, moment_terms(5, 6), regrouped_products(5, PUMA_LAYOUT, K))
     effects = EffectSet((effect,))
     h = effects.measurement_function(kinematics, device, ("smr",)).map(len(q))
     predicted = np.array(h(q.T, np.zeros((extras_size(6), len(q))), kinematics.parameters.nominal, device.parameters.nominal, effects.values())).T
@@ -232,7 +232,7 @@ def test_a_hidden_wrist_bending_is_found_when_the_diagnosis_tries_bending(tmp_pa
     is added and the refit reaches the noise; with the default candidates (no bending) the neighbours' compliance
     cannot explain it."""
     info = write_campaign(tmp_path, "puma560", [bending(5)], seed=0, sigmas=3.0)
-    _, tried = _diagnose(info["spec"], Diagnose(candidates=list(EFFECT_TYPES)))
+    _, tried = _diagnose(info["spec"], Diagnose(candidates=list(vocabulary())))
     assert [e.id for e in tried.added] == ["joint_bending.j5"]
     assert _validation_rms(tried) < 1.15
     _, default = _diagnose(info["spec"])

@@ -15,9 +15,9 @@ from round_trip import round_trip
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
-from armcal.diagnose.candidates import coupling_pairs
 from armcal.diagnose.calibration import identify_and_diagnose
-from armcal.effects.library import coupling as coupling_effect, from_spec, to_spec_dict
+from armcal.effects.library import from_spec, to_spec_dict
+from armcal.effects.types.joint_coupling import coupling as coupling_effect, coupling_pairs
 from armcal.effects.measurement import EffectSet, extras_size
 from armcal.kinematics.compiler import compile_robot
 from armcal.simulate.truth import TrueRobot

@@ -11,7 +11,9 @@ from conftest import copy_example
 from test_diagnosis import TRACKER, _data, _spec
 
 from armcal.diagnose.loop import Context, contiguous_folds, holds_out, run_diagnosis
-from armcal.effects.library import EffectSpec, coupling
+from armcal.devices.registry import vocabulary
+from armcal.effects.library import EffectSpec
+from armcal.effects.types.joint_coupling import coupling
 from armcal.effects.measurement import EffectSet
 from armcal.commands.run import run
 from armcal.spec.sections import Diagnose, Fit
@@ -57,9 +59,9 @@ def test_a_joint_effect_is_cross_validated_over_contiguous_ranges_of_its_joint(t
         assert all(high < low for (_, high), (low, _) in zip(ranges, ranges[1:]))
     circle_point = np.r_[np.zeros(75), np.linspace(-1.0, 1.0, 15)]  # a joint still in 75 of 90 poses, then its circle
     np.testing.assert_array_equal(contiguous_folds(circle_point, 5), np.arange(90) % 5)
-    assert EffectSpec("gear_harmonic", joint=2, order=3).followed_joint == 2
+    assert EffectSpec(vocabulary()["gear_harmonic"], joint=2, order=3).followed_joint == 2
     assert coupling(3, 2).followed_joint == 2
-    assert EffectSpec("sensor_scale").followed_joint is None
+    assert EffectSpec(vocabulary()["sensor_scale"]).followed_joint is None
 
 
 def test_a_round_limit_with_residuals_left_is_unexplained_and_partly_explained(tmp_path):

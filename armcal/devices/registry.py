@@ -26,9 +26,9 @@ def instruments_where(test) -> list[str]:
     return [name for name, model in INSTRUMENTS.items() if test(model.section)]
 
 
-def accepting(effect_type: str) -> list[str]:
+def accepting(effect_name: str) -> list[str]:
     """The instruments an instrument-side effect acts on (none: an effect on the robot's side)."""
-    return instruments_where(lambda section: effect_type in {t.name for t in section.instrument_effects})
+    return instruments_where(lambda section: effect_name in {t.name for t in section.instrument_effects})
 
 
 def vocabulary() -> dict[str, EffectType]:

@@ -26,7 +26,7 @@ class EffectType:
     spec_model: ClassVar[type[SpecModel]]  # a spec ``effects:`` entry of this type
     compensated: ClassVar[bool] = False  # compensate inverts it: its joint deviation is a function of the joints alone
     opt_in: ClassVar[bool] = False  # the diagnosis tries it only when diagnose.candidates names it
-    products: ClassVar[bool] = False  # its parameters are mass-moment products m<c><k>, the keys of its values
+    products: ClassVar[bool] = False  # its parameters may be mass-moment products m<c><k>, the keys of its values
     tilts: ClassVar[bool] = False  # it tilts the links beyond its joint (``tilt``)
 
     def __init__(self) -> None:
@@ -41,7 +41,7 @@ class EffectType:
 
     def lists_products(self, entry) -> bool:
         """Whether a spec entry's parameters are the mass-moment products it lists."""
-        return False
+        return self.products
 
     def form(self, effect: EffectSpec) -> str | None:
         """joint_compliance's form (EffectSpec.form); None for the other types."""

@@ -50,9 +50,6 @@ class JointBendingType(EffectType):
     def fields(self, effect):
         return product_fields(effect.terms)
 
-    def lists_products(self, entry):
-        return True
-
     def candidates(self, kinematics, data, harmonic_orders):
         frames = kinematics.link_frames_batch(np.nan_to_num(data.q))
         out = []

@@ -16,7 +16,11 @@ error is turned from the instrument frame it is read in by that frame's rotation
 the points the model predicts with every instrument frame set to the base frame onto the points it predicts (the
 same points, turned and shifted; a station with fewer than 3 points takes the rotation the training data had there), and each correction is turned back into the frame it is
 applied in. Every other channel (a ball-bar's length, a theodolite's angles, a tracker's orientation) is a
-coordinate of its own, as read. Readings at no pose, or at joint values not all known, are none of its data.
+coordinate of its own, as read. A coordinate is learned where it is read (``at``): a point's base coordinates per
+target (two reflectors on the flange err differently when the flange turns), another channel per key, the target,
+pivot, station or plane its readings are taken on (a ball-bar's length at two pivots, an azimuth at two stations
+are two functions of the joints). At most MAX_COORDINATES are learned, those with the most readings. Readings at
+no pose, or at joint values not all known, are none of its data.
 
 It enters after the physical loop has finished, never instead of an effect, and is judged on the loop's k-fold
 folds (loop.Context.fold_fits: each fold's physical fit of the other folds, as every effect's held-out errors) with
@@ -46,7 +50,7 @@ from armcal.identify.fit import FitResult
 from armcal.identify.heldout import FRAME_PREFIXES
 from armcal.identify.problem import Problem
 from armcal.kinematics.transforms import rigid_registration
-from armcal.spec.learned import BASE, MAX_TRAINING, NOISE_RATIO, ResidualModelSection
+from armcal.spec.learned import BASE, MAX_COORDINATES, MAX_TRAINING, NOISE_RATIO, ResidualModelSection
 
 SHORTEST = {"revolute": 0.2, "prismatic": 20.0}  # rad, mm: no faster variation along a joint than this is learned
 # (0.2 rad turns a point 100 mm from the axis by 20 mm: the slide's length scale is bounded as that point's motion)
@@ -78,6 +82,7 @@ class CoordinateModel:
     predicted, internal units), the hyperparameters, and the fitted regressor."""
 
     channel: str
+    at: str  # where it is read: a point's target, else the key of its readings (key_label)
     q: np.ndarray
     y: np.ndarray
     constant: float  # prior variance of the learned function
@@ -90,7 +95,7 @@ class CoordinateModel:
         """What reproduces the model's predictions elsewhere (results.json, calibrated.yaml, ``export --format json``;
         stored_model reads it back): the training inputs and targets and the hyperparameters of C * RBF(l) + White,
         fitted no more."""
-        return {"coordinate": self.channel, "inputs": self.q.tolist(), "targets": self.y.tolist(),
+        return {"coordinate": self.channel, "at": self.at, "inputs": self.q.tolist(), "targets": self.y.tolist(),
                 "signal_variance": self.constant, "length_scales": self.length_scales.tolist(), "noise_variance": self.noise}
 
     def predict(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -121,20 +126,26 @@ def stored_model(section: ResidualModelSection) -> "ResidualModel":
     for entry in section.coordinates:
         q, y, scales = np.array(entry.inputs, dtype=float), np.array(entry.targets, dtype=float), np.array(entry.length_scales, dtype=float)
         regressor = regressor_of(q, y, entry.signal_variance, scales, entry.noise_variance)
-        coordinates[entry.coordinate] = CoordinateModel(entry.coordinate, q, y, entry.signal_variance, scales, entry.noise_variance, regressor,
-                                                        section.outside_fraction)
+        coordinates[entry.coordinate, entry.at] = CoordinateModel(entry.coordinate, entry.at, q, y, entry.signal_variance, scales,
+                                                                  entry.noise_variance, regressor, section.outside_fraction)
     return ResidualModel(coordinates)
+
+
+def key_label(key: tuple) -> str:
+    """Where a reading is taken, as a learned coordinate's ``at``: its key's names joined by '/' (e.g. t1/ball)."""
+    return "/".join(str(part) for part in key if part is not None)
 
 
 @dataclass(frozen=True)
 class Layout:
-    """Where a problem's readings go in the learned model: per channel the rows of its readings that are a coordinate
-    as read; the points, rows (n, 3) of the x, y, z of one sample and key; the turn (n, 3, 3) of each point from the
-    robot's base frame into the instrument frame it is read in, and the turn of each station (None: the instrument's
-    one placement)."""
+    """Where a problem's readings go in the learned model: per (channel, key_label) the rows of its readings that
+    are a coordinate as read; the points, rows (n, 3) of the x, y, z of one sample and key, and each one's target;
+    the turn (n, 3, 3) of each point from the robot's base frame into the instrument frame it is read in, and the
+    turn of each station (None: the instrument's one placement)."""
 
-    channels: dict[str, np.ndarray]
+    channels: dict[tuple[str, str], np.ndarray]
     points: np.ndarray
+    targets: np.ndarray
     turn: np.ndarray
     turns: dict
 
@@ -166,9 +177,13 @@ def layout(problem: Problem, r: np.ndarray, q: np.ndarray, theta: np.ndarray, de
             turns[station] = rigid_registration(base[mine].reshape(-1, 3), (res.measured[at] + r[at] * res.sigma[at]).reshape(-1, 3))[:3, :3]
     have = np.array([s in turns for s in stations], dtype=bool)
     rows = rows[have]
+    targets = np.array([device.target(key) for key, h in zip(keys, have) if h], dtype=object)
     turn = np.array([turns[s] for s, h in zip(stations, have) if h]).reshape(-1, 3, 3)
-    found = {name: np.flatnonzero(posed & ~read_as_point & (channel == name)) for name in dict.fromkeys(res.channel)}
-    return Layout({name: at for name, at in found.items() if len(at)}, rows, turn, turns)
+    where = np.array([key_label(key) for key in res.key], dtype=object)
+    found: dict[tuple[str, str], list[int]] = {}
+    for i in np.flatnonzero(posed & ~read_as_point):
+        found.setdefault((channel[i], where[i]), []).append(int(i))
+    return Layout({read: np.array(at) for read, at in found.items()}, rows, targets, turn, turns)
 
 
 @dataclass(frozen=True)
@@ -181,23 +196,32 @@ class ResidualModel:
         outside the calibrated region (readings of a coordinate without a model are neither)."""
         res = problem.residuals
         change, outside = np.zeros(len(res.sigma)), np.zeros(len(res.sigma), dtype=bool)
-        for name, at in placed.channels.items():
-            if name in self.coordinates:
-                mean, _, inside = self.coordinates[name].predict(q[res.sample[at]])
+        for read, at in placed.channels.items():
+            if read in self.coordinates:
+                mean, _, inside = self.coordinates[read].predict(q[res.sample[at]])
                 change[at] = np.where(inside, mean / res.sigma[at], 0.0)
                 outside[at] = ~inside
-        if len(placed.points) and set(BASE) <= set(self.coordinates):
-            at = placed.points
-            shift, inside = self.point_shift(q[res.sample[at[:, 0]]])
-            change[at] = np.einsum("nij,nj->ni", placed.turn, shift) / res.sigma[at]
+        for target in self.point_targets():
+            mine = placed.targets == target
+            at = placed.points[mine]
+            shift, inside = self.point_shift(q[res.sample[at[:, 0]]], target)
+            change[at] = np.einsum("nij,nj->ni", placed.turn[mine], shift) / res.sigma[at]
             outside[at] = ~inside  # counted per base coordinate, three to a point
         return change, outside
 
-    def point_shift(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(shift (N, 3), inside (N, 3)): the learned error of the measured point (measured - predicted, the robot's
-        base frame) at joint values ``q``, zero in a base coordinate outside the calibrated region, and where it is
-        inside. The model must hold base_x, base_y and base_z."""
-        predicted = [self.coordinates[name].predict(q) for name in BASE]
+    def outside_fraction(self) -> float:
+        """The fraction of the prior's standard deviation above which a prediction is outside the calibrated region."""
+        return next(iter(self.coordinates.values())).outside
+
+    def point_targets(self) -> list[str]:
+        """The targets whose point errors the model holds in the robot's base frame (base_x, base_y and base_z)."""
+        return [at for (name, at) in self.coordinates if name == BASE[0] and all((b, at) in self.coordinates for b in BASE)]
+
+    def point_shift(self, q: np.ndarray, target: str) -> tuple[np.ndarray, np.ndarray]:
+        """(shift (N, 3), inside (N, 3)): the learned error of ``target``'s measured point (measured - predicted, the
+        robot's base frame) at joint values ``q``, zero in a base coordinate outside the calibrated region, and where it
+        is inside (``target`` one of point_targets)."""
+        predicted = [self.coordinates[name, target].predict(q) for name in BASE]
         inside = np.stack([p[2] for p in predicted], axis=1)
         return np.where(inside, np.stack([p[0] for p in predicted], axis=1), 0.0), inside
 
@@ -234,15 +258,22 @@ def _coordinates(residuals) -> dict[str, np.ndarray]:
     return {name: at for name, at in found.items() if len(at)}
 
 
-def _coordinate_data(problem: Problem, r: np.ndarray, placed: Layout, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, float]]:
-    """Per learned coordinate: the joint values of its readings, measured - predicted (internal units; a point's
-    turned into the robot's base frame), its median sigma."""
+def _coordinate_data(problem: Problem, r: np.ndarray, placed: Layout, q: np.ndarray) -> dict[tuple[str, str], tuple[np.ndarray, np.ndarray, float]]:
+    """Per learned coordinate (channel, at): the joint values of its readings, measured - predicted (internal units;
+    a point's turned into the robot's base frame), its median sigma. At most MAX_COORDINATES: a channel at a key, or a
+    target's three base coordinates together, those with the most readings first (the order of the readings breaks
+    a tie)."""
     res = problem.residuals
-    data = {name: (q[res.sample[at]], -r[at] * res.sigma[at], float(np.median(res.sigma[at]))) for name, at in placed.channels.items()}
-    if len(placed.points):
-        at = placed.points
-        base = np.einsum("nji,nj->ni", placed.turn, -r[at] * res.sigma[at])  # R' e: the error in the base frame
-        data.update({name: (q[res.sample[at[:, 0]]], base[:, k], float(np.median(res.sigma[at]))) for k, name in enumerate(BASE)})
+    groups = [{read: (q[res.sample[at]], -r[at] * res.sigma[at], float(np.median(res.sigma[at])))} for read, at in placed.channels.items()]
+    base = np.einsum("nji,nj->ni", placed.turn, -r[placed.points] * res.sigma[placed.points])  # R' e: the error in the base frame
+    for target in dict.fromkeys(placed.targets):
+        mine = placed.targets == target
+        at = placed.points[mine]
+        groups.append({(name, target): (q[res.sample[at[:, 0]]], base[mine, k], float(np.median(res.sigma[at]))) for k, name in enumerate(BASE)})
+    data: dict = {}
+    for group in sorted(groups, key=lambda g: -len(next(iter(g.values()))[1])):
+        if len(data) + len(group) <= MAX_COORDINATES:
+            data.update(group)
     return data
 
 
@@ -264,7 +295,7 @@ def shortest_scales(kinematics) -> np.ndarray:
     return np.array([SHORTEST[kind] for kind in kinematics.joint_types])
 
 
-def fit_coordinate(channel: str, q: np.ndarray, y: np.ndarray, sigma: float, shortest: np.ndarray, restarts: int = RESTARTS) -> CoordinateModel:
+def fit_coordinate(channel: str, at: str, q: np.ndarray, y: np.ndarray, sigma: float, shortest: np.ndarray, restarts: int = RESTARTS) -> CoordinateModel:
     """One coordinate's Gaussian process, hyperparameters by the marginal likelihood (module docstring); length
     scales from ``shortest`` (one per joint) up."""
     from sklearn.exceptions import ConvergenceWarning  # scikit-learn only when a spec asks for the model
@@ -286,7 +317,7 @@ def fit_coordinate(channel: str, q: np.ndarray, y: np.ndarray, sigma: float, sho
         regressor.fit(q, y)
     fitted = regressor.kernel_
     return CoordinateModel(
-        channel, q, y, float(fitted.k1.k1.constant_value), np.atleast_1d(fitted.k1.k2.length_scale).astype(float),
+        channel, at, q, y, float(fitted.k1.k1.constant_value), np.atleast_1d(fitted.k1.k2.length_scale).astype(float),
         float(fitted.k2.noise_level), regressor,
     )
 
@@ -295,7 +326,7 @@ def fit_model(problem: Problem, r: np.ndarray, placed: Layout, q: np.ndarray, sh
     """The learned model of ``problem``'s weighted residuals ``r`` (its layout ``placed``; ``q``: the joint values of
     its samples)."""
     data = _coordinate_data(problem, r, placed, q)
-    return ResidualModel({name: fit_coordinate(name, *values, shortest, restarts) for name, values in data.items()})
+    return ResidualModel({read: fit_coordinate(*read, *values, shortest, restarts) for read, values in data.items()})
 
 
 def _along(model: ResidualModel, q: np.ndarray) -> int | None:
@@ -351,14 +382,18 @@ def corrected(model: ResidualModel, data: Measurements, turns: dict, device) -> 
     region: a point's turned into its station's frame (``turns``; a station without one is left as read)."""
     readings = {name: values.copy() for name, values in data.readings.items()}
     known = np.all(np.isfinite(data.q), axis=1)
-    for name, coordinate in model.coordinates.items():
+    where = np.array([key_label(key) for key in data.keys], dtype=object)
+    for (name, at), coordinate in model.coordinates.items():
         if name in readings:
-            mean, _, inside = coordinate.predict(np.nan_to_num(data.q))
-            readings[name] -= np.where(inside & known, mean, 0.0)
-    if set(BASE) <= set(model.coordinates) and set(POINT) <= set(readings):
-        stations = [device.station(key) for key in data.keys]
-        rows = np.flatnonzero(known & np.array([device.target(k) is not None and s in turns for k, s in zip(data.keys, stations)], dtype=bool))
-        shift, _ = model.point_shift(data.q[rows])
+            rows = np.flatnonzero(known & (where == at))
+            mean, _, inside = coordinate.predict(data.q[rows])
+            readings[name][rows] -= np.where(inside, mean, 0.0)
+    stations = [device.station(key) for key in data.keys]
+    targets = np.array([device.target(key) for key in data.keys], dtype=object)
+    placed = np.array([s in turns for s in stations], dtype=bool)
+    for target in model.point_targets() if set(POINT) <= set(readings) else ():
+        rows = np.flatnonzero(known & placed & (targets == target))
+        shift, _ = model.point_shift(data.q[rows], target)
         turned = np.einsum("nij,nj->ni", np.array([turns[stations[i]] for i in rows]).reshape(-1, 3, 3), shift)
         for k, name in enumerate(POINT):
             readings[name][rows] -= turned[:, k]

@@ -253,9 +253,9 @@ def residual_model_block(loaded: LoadedSpec, calibration: Calibration) -> dict |
         "outside_fraction": OUTSIDE,
         "joint_units": [JOINT_UNIT[joint_kind(j.type)] for j in loaded.spec.robot.joints],
         "hyperparameters": [
-            {"coordinate": n, "unit": unit(n), "signal_std": shown(n, float(np.sqrt(m.constant))), "noise_std": shown(n, float(np.sqrt(m.noise))),
+            {"coordinate": n, "at": at, "unit": unit(n), "signal_std": shown(n, float(np.sqrt(m.constant))), "noise_std": shown(n, float(np.sqrt(m.noise))),
              "length_scales": [float(v) for v in m.length_scales], "training_readings": len(m.y)}
-            for n, m in judgement.model.coordinates.items()
+            for (n, at), m in judgement.model.coordinates.items()
         ],
         "seconds": judgement.seconds,
         "carried": CARRIED,

@@ -41,6 +41,7 @@ from armcal.support.units import factor, to_internal
 POSE = ("x", "y", "z", "rx", "ry", "rz")
 POSE_KINDS = dict(zip(POSE, ("length",) * 3 + ("angle",) * 3))  # the spec's length and angle units
 FIXED_POINT_STEPS = 50
+TOOL_AT_TARGET = 1e-6  # mm: the tool frame's origin is at a target
 FIXED_POINT_TOLERANCE = 1e-13  # rad or mm
 REACHED = 1e-4  # mm (and the axis columns' difference): a target the calibrated robot reaches
 FARTHEST = 1e6  # mm: a target's x, y and z at most (a kilometre)
@@ -118,10 +119,12 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     reached, found = _solutions(kinematics, goals, seeds, error_function)
     command = _through_joint_effects(reached, deviation)
     section = learned_section(loaded, results)
-    model = stored_model(section) if section is not None and set(BASE) <= {c.coordinate for c in section.coordinates} else None
+    stored = stored_model(section) if section is not None else None
+    target = _tool_target(kinematics, stored) if stored is not None else None
+    model = stored if target is not None else None
     solved = found.copy()  # without the learned correction
     if model is not None:
-        command, shift, trusted = _with_learned_point(kinematics, model, goals, reached, found, command, deviation, error_function)
+        command, shift, trusted = _with_learned_point(kinematics, model, target, goals, reached, found, command, deviation, error_function)
     inside = ik.within_limits(kinematics, command)
     error = np.full(len(goals), np.nan)
     actual = poses(command + deviation(command), kinematics.parameters.nominal)[:, :3, 3]
@@ -153,7 +156,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
             row.append(_learned_status(trusted[i]) if found[i] else "")
         rows.append(row)
     untrusted = int(np.sum(found & ~trusted.all(axis=1))) if model is not None else 0
-    return csv_text(rows), unreached, left_out, _learned_note(loaded, results, section, model, int(found.sum()), untrusted)
+    return csv_text(rows), unreached, left_out, _learned_note(loaded, results, stored, target, int(found.sum()), untrusted)
 
 
 def _through_joint_effects(reached: np.ndarray, deviation) -> np.ndarray:
@@ -166,7 +169,17 @@ def _through_joint_effects(reached: np.ndarray, deviation) -> np.ndarray:
     return command
 
 
-def _with_learned_point(kinematics: KinematicModel, model: ResidualModel, goals: np.ndarray, reached: np.ndarray, found: np.ndarray,
+def _tool_target(kinematics: KinematicModel, model: ResidualModel) -> str | None:
+    """The target whose learned point error is the tool's own: the model's point target at the tool frame's origin
+    (within TOOL_AT_TARGET, at the calibrated parameters, at the chain's zero and at a turn of every joint); None when
+    the tool is at none of them (a reflector's error is not the tool's where the flange turns)."""
+    configurations = np.stack([np.zeros(kinematics.dof), np.full(kinematics.dof, 0.5)])
+    tool = kinematics.tool_poses(configurations)[:, :3, 3]
+    return next((t for t in model.point_targets()
+                 if np.max(np.abs(kinematics.target_poses(t, configurations)[:, :3, 3] - tool)) <= TOOL_AT_TARGET), None)
+
+
+def _with_learned_point(kinematics: KinematicModel, model: ResidualModel, target: str, goals: np.ndarray, reached: np.ndarray, found: np.ndarray,
                         command: np.ndarray, deviation, error: ca.Function) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(command (N, n), shift (N, 3), trusted (N, 3)): the command whose calibrated pose plus the learned correction delta(command)
     is the goal's position, orientation untouched: the fixed point goal - delta(q) -> q* (inverse kinematics from
@@ -175,7 +188,7 @@ def _with_learned_point(kinematics: KinematicModel, model: ResidualModel, goals:
     goals solved without it (updated in place where the moved goal has no solution)."""
     reached = reached.copy()
     for _ in range(FIXED_POINT_STEPS if found.any() else 0):
-        shift, _ = model.point_shift(command)
+        shift, _ = model.point_shift(command, target)
         moved = goals.copy()
         moved[:, :3] -= shift
         solved = ik.solve(kinematics, moved[found], reached[found], halvings=ik.SAFE_HALVINGS, error=error)
@@ -184,7 +197,7 @@ def _with_learned_point(kinematics: KinematicModel, model: ResidualModel, goals:
         previous, command = command, _through_joint_effects(reached, deviation)
         if not found.any() or np.max(np.abs(command - previous)[found]) < FIXED_POINT_TOLERANCE:
             break
-    return command, *model.point_shift(command)
+    return command, *model.point_shift(command, target)
 
 
 def _learned_status(trusted: np.ndarray) -> str:
@@ -194,15 +207,20 @@ def _learned_status(trusted: np.ndarray) -> str:
     return "not applied, outside the calibrated region: " + " ".join(name for name, ok in zip(BASE, trusted) if not ok)
 
 
-def _learned_note(loaded: LoadedSpec, results: dict | None, section, model: ResidualModel | None, solved: int, untrusted: int) -> str | None:
+def _learned_note(loaded: LoadedSpec, results: dict | None, model: ResidualModel | None, target: str | None, solved: int, untrusted: int) -> str | None:
     """What the terminal says of the learned residual model (None: there is none)."""
-    if model is not None:
-        return (f"learned correction (residual_model: the error of the measured target point, e.g. the tracker's reflector, in the "
+    if target is not None:
+        return (f"learned correction (residual_model: the error of target {target}'s measured point, where the tool frame is, in the "
                 f"robot's base frame) applied to each target's position, orientation untouched: {solved - untrusted} of {solved} "
-                f"solved targets in full, {untrusted} with a coordinate outside the calibrated region (not applied there: learned_correction)")
-    if section is not None:
+                f"solved targets in full, {untrusted} with a coordinate outside the calibrated region (predictive std above "
+                f"{model.outside_fraction():g} of the prior's; not applied there: learned_correction)")
+    if model is not None and model.point_targets():
+        return (f"not compensated: the learned residual model holds the error of the measured point of {', '.join(model.point_targets())}, "
+                f"and the tool frame (robot.tool) is at none of them: a point's error is not the tool's where the flange turns. Give "
+                f"robot.tool at that target's position for the correction to apply: none applied")
+    if model is not None:
         return (f"not compensated: the learned residual model holds no point's error in the robot's base frame ({', '.join(BASE)}; it "
-                f"holds {', '.join(c.coordinate for c in section.coordinates)}), so it cannot correct a Cartesian target: none applied")
+                f"holds {', '.join(sorted({name for name, _ in model.coordinates}))}), so it cannot correct a Cartesian target: none applied")
     asked = learned_model(loaded, results)
     return None if asked is None else f"not compensated: {asked}"
 

@@ -175,7 +175,7 @@ def _learned(results: dict, shown: Shown) -> dict | None:
     verdict = "accepted" if model["accepted"] else "not accepted: the physical model stands alone and no correction is applied"
     outside = [f"{f['outside']} of {f['readings']} {label} readings" for label, f in (("k-fold held-out", model["held_out"]), ("validation", model.get("validation"))) if f]
     hyper = "; ".join(
-        f"{h['coordinate']}: signal {value(h['signal_std'], h['unit'])}, noise {value(h['noise_std'], h['unit'])} {shown.unit_of(h['unit'])}, "
+        f"{h['coordinate']} at {h['at']}: signal std {value(h['signal_std'], h['unit'])}, noise std {value(h['noise_std'], h['unit'])} {shown.unit_of(h['unit'])}, "
         f"length scales {', '.join(f'{significant(v, 2)} {u}' for v, u in zip(h['length_scales'], model['joint_units']))}, "
         f"{h['training_readings']} training readings"
         for h in model["hyperparameters"]

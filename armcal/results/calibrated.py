@@ -76,7 +76,7 @@ def _drop_earlier_std(root: CommentedMap, spec: Spec, identified: set[str]) -> N
 
 def _learned_section(learned: dict) -> CommentedMap:
     """The residual_model section, a row of joint values and the short lists on one line each, at full precision (the
-    round trip reproduces the run's predictions); inputs that repeat an earlier coordinate's (a point's base_x, base_y,
+    round trip reproduces the run's predictions); inputs that repeat an earlier coordinate's (a target's base_x, base_y,
     base_z: the same readings) are written once, and aliased (*inputs): the section stays within a spec's size limit."""
 
     def flow(values: list) -> CommentedSeq:
@@ -90,9 +90,9 @@ def _learned_section(learned: dict) -> CommentedMap:
         inputs = next((seq for rows, seq in written if rows == c["inputs"]), None)
         if inputs is None:
             inputs = CommentedSeq(flow(row) for row in c["inputs"])
-            inputs.yaml_set_anchor(f"inputs_{c['coordinate']}", always_dump=True)
+            inputs.yaml_set_anchor(f"inputs_{len(written) + 1}", always_dump=True)
             written.append((c["inputs"], inputs))
-        coordinates.append(CommentedMap([("coordinate", c["coordinate"]), ("inputs", inputs), ("targets", flow(c["targets"])),
+        coordinates.append(CommentedMap([("coordinate", c["coordinate"]), ("at", c["at"]), ("inputs", inputs), ("targets", flow(c["targets"])),
                                          ("signal_variance", c["signal_variance"]), ("length_scales", flow(c["length_scales"])),
                                          ("noise_variance", c["noise_variance"])]))
     return CommentedMap([("kind", learned["kind"]), ("outside_fraction", learned["outside_fraction"]), ("joint_units", flow(learned["joint_units"])),

@@ -236,6 +236,7 @@ class LearnedFigures(_Frozen):
 
 class LearnedHyperparameters(_Frozen):
     coordinate: str
+    at: str  # where it is read (LearnedCoordinate.at)
     unit: str
     signal_std: float  # prior standard deviation of the learned function
     noise_std: float
@@ -248,6 +249,7 @@ class LearnedCoordinate(_Frozen):
     signal_variance * RBF(length_scales) + noise_variance * White, conditioned on the targets at the inputs."""
 
     coordinate: str  # a channel as read, or base_x, base_y, base_z: a point's error in the robot's base frame
+    at: str  # where it is read: a point's target, else its readings' key (names joined by '/')
     inputs: list[list[float]]  # joint values of the training readings (joint_units)
     targets: list[float]  # measured - predicted by the physical model, mm (rad for an angle)
     signal_variance: float

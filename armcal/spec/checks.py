@@ -14,7 +14,7 @@ from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
 from armcal.spec_parts.robot import SixParameterRobot
 from armcal.kinematics.params import joint_kind
-from armcal.spec.learned import JOINT_UNIT
+from armcal.spec.learned import BASE, JOINT_UNIT
 from armcal.effects.types.joint_bending import JointBending
 from armcal.effects.types.joint_compliance import JointCompliance
 from armcal.effects.types.joint_coupling import JointCoupling
@@ -228,11 +228,14 @@ def _residual_model(spec: Spec) -> Iterator[Problem]:
 
 def residual_model_problems(model, robot) -> Iterator[Problem]:
     """A stored learned model (spec/learned.py) is of this robot: a value per joint in every row and length scale,
-    its joints' units."""
+    its joints' units, a point's coordinates at one of its targets."""
     units = [JOINT_UNIT[joint_kind(joint.type)] for joint in robot.joints]
     if model.joint_units != units:
         yield ("residual_model", "joint_units"), f"the robot's joints are in {units}, not {model.joint_units}: a model of another robot"
     for i, coordinate in enumerate(model.coordinates):
+        if coordinate.coordinate in BASE and coordinate.at not in robot.targets:
+            yield ("residual_model", "coordinates", i, "at"), (f"{shown_value(coordinate.at)} is not one of the robot's targets "
+                                                            f"({', '.join(robot.targets)}): a point's error is learned at a target")
         if len(coordinate.length_scales) != robot.dof:
             yield ("residual_model", "coordinates", i, "length_scales"), f"{len(coordinate.length_scales)} length scales for {robot.dof} joints: one per joint"
         wrong = next((r for r, row in enumerate(coordinate.inputs) if len(row) != robot.dof), None)

@@ -19,6 +19,7 @@ JOINT_UNIT = {"angle": "rad", "length": "mm"}  # the unit of a joint's value (pa
 BASE = ("base_x", "base_y", "base_z")  # a point's learned coordinates: its error in the robot's base frame
 MAX_TRAINING = 800  # readings per coordinate that train a model at most (a spread subset above)
 MAX_COORDINATES = 16  # a point's three base coordinates, a tracker's three angles, a sonic digitizer's microphones
+MAX_WHERE = 256  # characters of a coordinate's ``at``
 MAX_JOINTS = 64  # values in a row or length scales at most, before they are checked against the robot's joints
 CHANNELS = ("rx", "ry", "rz", "length", "contact", "dx", "dy", "dz", "azimuth", "elevation")  # read as coordinates of their own
 # (devices/*.py channels; a point's x, y, z are learned in the base frame), and a sonic digitizer's s_<microphone>
@@ -44,6 +45,8 @@ class LearnedCoordinate(SpecModel):
     its predictions without fitting again."""
 
     coordinate: Annotated[str, AfterValidator(_coordinate)] = Field(description="base_x, base_y, base_z (a point's error in the robot's base frame) or a channel as read")
+    at: str = Field(min_length=1, max_length=MAX_WHERE, pattern=r"^[^\x00-\x1f\x7f]+$",
+                    description="where it is read: a point's target (a robot target), else its readings' key (target, pivot, station, plane; '/' between names)")
     inputs: list[Annotated[list[Value], Field(max_length=MAX_JOINTS)]] = Field(
         min_length=1, max_length=MAX_TRAINING, description="joint values of the training readings, one row per reading (joint_units)"
     )
@@ -75,7 +78,7 @@ class ResidualModelSection(SpecModel):
 
     @model_validator(mode="after")
     def _each_coordinate_once(self) -> "ResidualModelSection":
-        names = [c.coordinate for c in self.coordinates]
+        names = [f"{c.coordinate} at {c.at}" for c in self.coordinates]
         if len(set(names)) != len(names):
             raise ValueError(f"a coordinate is given twice ({', '.join(sorted({n for n in names if names.count(n) > 1}))}): one model each")
         return self

@@ -93,7 +93,7 @@ class Diagnose(SpecModel):
     residual_model: Literal["none", "gp"] = Field(
         "none",
         description="a learned model of what the physical model leaves, after the physical effects: none, or gp (a Gaussian "
-        "process per measured coordinate on the joint angles, kept only when it holds out on the k-fold folds as an effect must)",
+        "process per learned coordinate on the joint values, kept only when it holds out on the k-fold folds as an effect must)",
     )
 
 

@@ -21,7 +21,7 @@ from test_run import E_NOTATION
 import independent_sim as sim
 from armcal.dataio.reader import read_measurements
 from armcal.diagnose.calibration import identify_and_diagnose
-from armcal.diagnose.residual_model import MAX_TRAINING, Layout, fit_coordinate, spread_subset, stored_model, summary
+from armcal.diagnose.residual_model import MAX_TRAINING, Layout, fit_coordinate, fit_model, layout, spread_subset, stored_model, summary
 from armcal.export.compensation import compensate
 from armcal.spec.learned import BASE, ResidualModelSection, section_of
 from test_compensation import _commands, _with_tool_at_smr, registration_of
@@ -157,9 +157,10 @@ def test_calibrated_yaml_stores_the_model_and_its_predictions_come_back_exactly(
     stored = stored_model(load_spec(alone).spec.residual_model)
     run_model = stored_model(ResidualModelSection.model_validate(section_of(json.loads((outcome.out_dir / "results.json").read_text())["residual_model"])))
     q = np.random.default_rng(4).uniform(-3, 3, (200, 6))  # near and far from the training poses
-    for name in BASE:
-        for back, fitted in zip(stored.coordinates[name].predict(q), run_model.coordinates[name].predict(q)):
-            assert np.array_equal(back, fitted), name
+    assert list(stored.coordinates) == list(run_model.coordinates) == [(name, "smr") for name in BASE]
+    for read in BASE:
+        for back, fitted in zip(stored.coordinates[read, "smr"].predict(q), run_model.coordinates[read, "smr"].predict(q)):
+            assert np.array_equal(back, fitted), read
     exported = subprocess.run([sys.executable, "-m", "armcal", "export", str(alone), "--format", "json", "--out", str(tmp_path / "c.json")],
                               capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert "learned residual model that the run accepted is carried" in exported.stdout, exported.stdout + exported.stderr
@@ -172,7 +173,8 @@ def test_a_run_folder_without_the_section_carries_results_jsons_model_and_refuse
     outcome, *_ = bent
     old = tmp_path / "old"
     old.mkdir()
-    (old / "calibrated.yaml").write_text((outcome.out_dir / "calibrated.yaml").read_text().split("\nresidual_model:", 1)[0] + "\n")
+    at_smr = _with_tool_at_smr(outcome.out_dir / "calibrated.yaml", tmp_path / "at_smr.yaml")  # compensate's tool at the learned target
+    (old / "calibrated.yaml").write_text(at_smr.text.split("\nresidual_model:", 1)[0] + "\n")
     written = json.loads((outcome.out_dir / "results.json").read_text())
     (old / "results.json").write_text(json.dumps(written))
     targets = tmp_path / "targets.csv"
@@ -180,7 +182,7 @@ def test_a_run_folder_without_the_section_carries_results_jsons_model_and_refuse
     armcal = lambda: subprocess.run([sys.executable, "-m", "armcal", "compensate", str(old), "--targets", str(targets), "--out", str(tmp_path / "c.csv"),  # noqa: E731
                                      "--force"], capture_output=True, text=True, cwd=ROOT, timeout=120)
     shown = armcal()
-    assert shown.returncode == 0 and "1 of 1 solved targets in full" in shown.stdout, shown.stdout + shown.stderr
+    assert shown.returncode == 0 and "learned correction (residual_model: the error of target smr's" in shown.stdout, shown.stdout + shown.stderr
     for coordinate in written["residual_model"]["model"]:
         coordinate["inputs"] = [row[:5] for row in coordinate["inputs"]]
     (old / "results.json").write_text(json.dumps(written))
@@ -259,6 +261,11 @@ def test_compensate_with_the_learned_model_reaches_the_bent_robots_targets(bent,
     assert all(f.startswith("not applied, outside the calibrated region: ") and "base_z" in f for f in flagged), flagged
     assert np.max(np.abs(miss(with_model)[40:] - miss(without)[40:])) < 0.01  # the far rows: uncorrected in base_z
     assert "applied to each target's position" in note and "40 of 45 solved targets in full, 5 with a coordinate outside" in note
+    elsewhere = load_spec(outcome.out_dir / "calibrated.yaml")  # the tool frame as calibrated, not at the reflector
+    kinematics = compile_robot(elsewhere.spec.robot)
+    assert np.linalg.norm(kinematics.tool_poses(Q[:1])[0, :3, 3] - kinematics.target_poses("smr", Q[:1])[0, :3, 3]) > 1.0  # the premise
+    text, _, _, told = compensate(elsewhere, None, "name,x,y,z,rx,ry,rz\nt0,800,100,500,0,0,0\n", "targets")
+    assert "learned_correction" not in text.splitlines()[0] and "the tool frame (robot.tool) is at none of them" in told, told
 
 
 def _rot(axis: int, angle: float) -> np.ndarray:
@@ -302,7 +309,7 @@ def test_a_model_fitted_far_above_its_noise_is_one_calibrated_yaml_holds():
     the run's own model could not be stored or read back from results.json."""
     q = np.random.default_rng(0).uniform(-2, 2, (60, 6))
     y = 20 * np.sin(q[:, 1] + q[:, 2]) + np.random.default_rng(1).normal(0, 1e-4, 60)
-    model = fit_coordinate("base_x", q, y, 1e-4, np.full(6, 0.2))
+    model = fit_coordinate("base_x", "smr", q, y, 1e-4, np.full(6, 0.2))
     ResidualModelSection.model_validate({"kind": "gp", "outside_fraction": 0.5, "joint_units": ["rad"] * 6, "coordinates": [model.carried()]})
 
 
@@ -322,9 +329,9 @@ def test_far_predictions_are_outside_unless_the_coordinate_learned_nothing():
     (its signal fitted to under a tenth of its noise) is flagged nowhere: no correction of it could matter."""
     rng = np.random.default_rng(3)
     q, far = rng.uniform(-1, 1, (200, 2)), rng.uniform(5, 6, (50, 2))
-    signal = fit_coordinate("x", q, np.sin(q[:, 0]) + rng.normal(0, 0.01, 200), 0.01, np.full(2, 0.2))
+    signal = fit_coordinate("x", "smr", q, np.sin(q[:, 0]) + rng.normal(0, 0.01, 200), 0.01, np.full(2, 0.2))
     assert not signal.learned_nothing and signal.predict(q)[2].all() and not signal.predict(far)[2].any()
-    silent = fit_coordinate("y", q, np.zeros(200), 0.01, np.full(2, 0.2))
+    silent = fit_coordinate("y", "smr", q, np.zeros(200), 0.01, np.full(2, 0.2))
     assert np.sqrt(silent.constant) < 0.1 * np.sqrt(silent.noise)  # the premise: nothing was learned
     assert silent.learned_nothing and silent.predict(far)[2].all()
 
@@ -336,7 +343,7 @@ def test_a_channel_read_at_no_pose_is_no_coordinate_of_the_figures():
                                 sample=np.array([0, 0, 1, 1, -1]), sigma=np.array([2.0, 2.0, 2.0, 2.0, 0.01]),
                                 key=["a", "a", "a", "a", "rod"])
     r, change = np.array([1.0, -1.0, 3.0, 0.5, 7.0]), np.array([-0.5, 0.5, -1.0, 0.0, 0.0])
-    no_points = Layout({}, np.zeros((0, 3), dtype=int), np.zeros((0, 3, 3)), {})
+    no_points = Layout({}, np.zeros((0, 3), dtype=int), np.zeros(0, dtype=object), np.zeros((0, 3, 3)), {})
     figures = summary([(SimpleNamespace(residuals=residuals), r, change, np.zeros(5, dtype=bool), no_points)])
     assert list(figures.rms_physical) == ["azimuth", "elevation"]
     assert figures.rms_physical["azimuth"] == pytest.approx(2.0 * np.sqrt((1.0 + 9.0) / 2))
@@ -391,3 +398,28 @@ def test_a_bend_learned_at_three_stations_holds_at_new_turned_ones(tmp_path):
     assert figures.readings == 3 * evaluated.sum() and figures.outside < figures.readings / 3
     physical, learned = figures.rms_3d
     assert physical > 2 * noise and learned < 0.75 * physical
+
+
+def test_a_channel_read_at_two_keys_is_learned_at_each():
+    """A ball-bar's length read at two pivots errs by +e(q) at one and -e(q) at the other (two directions from the
+    flange): one model of the channel pooled over both would learn their mean, zero. Learned per key, each model
+    predicts its own pivot's error (the drawn function, not armcal's) and the correction removes it."""
+    rng = np.random.default_rng(5)
+    count = 240
+    q = rng.uniform(-1.5, 1.5, (count, 2))
+    pivot = np.where(np.arange(count) % 2 == 0, "p1", "p2")
+    error = 0.05 * np.sin(q[:, 0] + 0.5 * q[:, 1]) * np.where(pivot == "p1", 1.0, -1.0)  # measured - predicted, mm
+    sigma = np.full(count, 0.002)
+    r = -(error + rng.normal(0, 0.002, count)) / sigma  # weighted residuals (predicted - measured) / sigma
+    residuals = SimpleNamespace(channel=("length",) * count, sample=np.arange(count), key=[(p,) for p in pivot], sigma=sigma,
+                                measured=np.zeros(count))
+    problem, device = SimpleNamespace(residuals=residuals), SimpleNamespace(target=lambda key: None)
+    placed = layout(problem, r, q, np.zeros(0), device)
+    assert set(placed.channels) == {("length", "p1"), ("length", "p2")}
+    model = fit_model(problem, r, placed, q, np.full(2, 0.2))
+    for at in ("p1", "p2"):
+        mine = pivot == at
+        mean, _, inside = model.coordinates["length", at].predict(q[mine])
+        assert inside.all() and rms(mean - error[mine]) < 0.2 * rms(error[mine]), at
+    change, _ = model.correction(problem, placed, q)
+    assert rms((r + change) * sigma) < 0.2 * rms(r * sigma)

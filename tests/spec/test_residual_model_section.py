@@ -21,16 +21,18 @@ TARGETS = "name,x,y,z,rx,ry,rz\nt1,600,150,300,0,90,0\n"
 
 
 def _section(inputs=f"[{ROW}, {ROW}]", targets="[0.01, 0.02]", coordinate="base_z", noise="0.0004", scales="[1, 1, 1, 1, 1, 1]",
-             units="[rad, rad, rad, rad, rad, rad]", signal="0.01") -> str:
+             units="[rad, rad, rad, rad, rad, rad]", signal="0.01", at="smr") -> str:
     """A residual_model section, one entry per coordinate (names separated by spaces) with the same numbers."""
     return ("residual_model:\n  kind: gp\n  outside_fraction: 0.5\n" f"  joint_units: {units}\n  coordinates:\n" + "".join(
-        f"  - {{coordinate: {name}, inputs: {inputs}, targets: {targets}, signal_variance: {signal}, length_scales: {scales}, "
+        f"  - {{coordinate: {name}, at: {at}, inputs: {inputs}, targets: {targets}, signal_variance: {signal}, length_scales: {scales}, "
         f"noise_variance: {noise}}}\n" for name in coordinate.split()))
 
 
-def _spec(tmp_path, section: str):
+def _spec(tmp_path, section: str, tool: str = ""):
+    """The independent simulator's PUMA tracker spec with ``section``; ``tool``: a robot.tool mapping (none: the flange)."""
     path = tmp_path / "spec.yaml"
-    path.write_text(sim.spec_text("puma560", "tracker") + section)
+    text = sim.spec_text("puma560", "tracker")
+    path.write_text((text.replace("\n  targets:\n", f"\n  tool: {tool}\n  targets:\n", 1) if tool else text) + section)
     return path
 
 
@@ -48,7 +50,9 @@ def _spec(tmp_path, section: str):
     (_section(units="[rad, mm, rad, rad, rad, rad]"), "residual_model.joint_units", "a model of another robot"),
     (_section(noise="1e-13"), "residual_model.coordinates[0]", "The noise_variance (1e-13) is below 1e-10 of the signal_variance (0.01)"),
     (_section(targets="[1e7, 0]"), "residual_model.coordinates[0].targets[0]", "Must be at most 1000000.0, got 10000000.0."),
-    (_section(coordinate="base_x base_x"), "residual_model", "A coordinate is given twice (base_x): one model each."),
+    (_section(coordinate="base_x base_x"), "residual_model", "A coordinate is given twice (base_x at smr): one model each."),
+    (_section(at="flange"), "residual_model.coordinates[0].at", "'flange' is not one of the robot's targets (smr)"),
+    (_section(at='"a\\tb"'), "residual_model.coordinates[0].at", "String should match pattern"),
 ])
 def test_a_mistake_in_the_section_is_one_located_message(tmp_path, section, field, message):
     with pytest.raises(SpecError) as caught:
@@ -87,7 +91,7 @@ def test_a_correction_that_moves_a_target_out_of_reach_says_so(tmp_path):
     """A hand-edited model that moves every target by a metre (trusted everywhere: length scales of 1000 rad): the
     rows are unreachable, and say it is with the learned correction (without it they are reached)."""
     loaded = load_spec(_spec(tmp_path, _section(coordinate="base_x base_y base_z", inputs=f"[{ROW}]", targets="[1000]", signal="1e6",
-                                                 scales="[1000, 1000, 1000, 1000, 1000, 1000]")))
+                                                 scales="[1000, 1000, 1000, 1000, 1000, 1000]"), tool="{x: 50, y: 30, z: 80}"))
     text, unreached, _, note = compensate(loaded, None, TARGETS, "targets")
     assert unreached == ["t1 (no inverse-kinematics solution with the learned correction)"], unreached
     assert "0 of 0 solved targets in full" in note
@@ -117,7 +121,7 @@ def test_a_merge_key_is_read_and_a_merged_mistake_is_located_at_its_mapping(tmp_
 def test_results_jsons_edited_model_is_one_plain_message(tmp_path, edit, message):
     """A run's folder without the section takes results.json's model: an edit is one plain sentence (pydantic's 'Value
     error, ' prefix and 'another robot' for a NaN were shown), naming the field."""
-    coordinate = {"coordinate": "base_x", "inputs": [[0.1] * 6, [0.2] * 6], "targets": [0.01, 0.02], "signal_variance": 0.01,
+    coordinate = {"coordinate": "base_x", "at": "smr", "inputs": [[0.1] * 6, [0.2] * 6], "targets": [0.01, 0.02], "signal_variance": 0.01,
                   "length_scales": [1] * 6, "noise_variance": 0.0004, **edit}
     results = {"residual_model": {"kind": "gp", "outside_fraction": 0.5, "joint_units": ["rad"] * 6, "model": [coordinate]}}
     with pytest.raises(UserError) as caught:

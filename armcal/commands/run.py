@@ -95,7 +95,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
         simulated_times(validation_path, validation.extras.get("t"), step, None if not simulated[1] else {}) if validation is not None else None,
     ) if w] + placeholder_notes(loaded) + residual_model_note(spec, calibrated)
     measured = campaign(loaded, calibration, validation, simulated)
-    figures = run_figures(loaded, calibrated, calibration.rows, tasks, found, list(plots), measured)
+    figures = run_figures(loaded, calibrated, device, calibration.rows, tasks, found, list(plots), measured)
     results = build_results(loaded, figures, run_id=identifier, warnings=warnings,
                             simulated={"calibration": simulated[0], "validation": simulated[1] if validation_path else None})
     results = Results.model_validate({**results.model_dump(mode="json"), "history": history_entries(results.model_dump(mode="json"), earlier)})

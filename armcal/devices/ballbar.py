@@ -15,7 +15,7 @@ from typing import ClassVar, Literal
 
 from pydantic import Field
 
-from armcal.devices.base import Channel, DeviceModel, Key, declared
+from armcal.devices.base import Channel, DeviceModel, Key, declared, named_group
 from armcal.effects.effect_type import EffectType
 from armcal.effects.library import EffectSpec
 from armcal.kinematics import ik
@@ -173,6 +173,10 @@ class BallBarModel(DeviceModel):
         entries = point_entries("pivot", spec.pivots)
         entries.append(parameter_entry("bar.length", "length", spec.length))
         self.parameters = ParameterSet(tuple(entries))
+
+    def parameter_group(self, name: str) -> tuple[str, str] | None:
+        """A pivot's position."""
+        return named_group(name, "pivot", "pivot {}'s position")
 
     def channels(self, key: Key) -> tuple[Channel, ...]:
         return (Channel("length", "length"),)

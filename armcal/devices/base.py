@@ -104,6 +104,11 @@ class DeviceModel(ABC):
         """The stations whose frames are parameters of the model (the spec declares them)."""
         return ()
 
+    def parameter_group(self, name: str) -> tuple[str, str] | None:
+        """The group one of its parameters is freed with and the group's label, e.g. ("pivot.p1", "pivot p1's
+        position"); None: a parameter on its own. Here: the instrument's one placement, robot_base."""
+        return ("robot_base", "the robot's pose in the instrument frame") if name.startswith("robot_base.") else None
+
     def pose_keys(self) -> list[Key]:
         """The keys read at every pose of a pose list."""
         return [(target,) for target in self.spec.seen_targets()]
@@ -297,6 +302,13 @@ def held_in_contact(read, Q: np.ndarray, offset: np.ndarray, limits: np.ndarray,
         Q = Q - np.einsum("nij,nj->ni", np.linalg.pinv(J), r)
     held = np.all(np.abs(read(Q) - offset) < 1e3 * CONTACT_TOLERANCE, axis=1)
     return Q, held & np.all((Q >= limits[:, 0]) & (Q <= limits[:, 1]), axis=1)
+
+
+def named_group(name: str, prefix: str, label: str) -> tuple[str, str] | None:
+    """The group ``prefix.<part>`` of a parameter ``prefix.<part>.<field>`` and its ``label`` with the part in its {};
+    None for a parameter without that prefix."""
+    head = name.rpartition(".")[0]
+    return (head, label.format(head.split(".", 1)[1])) if name.startswith(f"{prefix}.") else None
 
 
 def declared(sigma: float | str) -> float:

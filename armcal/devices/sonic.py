@@ -22,7 +22,7 @@ import casadi as ca
 import numpy as np
 from pydantic import Field, ValidationInfo, WrapValidator
 
-from armcal.devices.base import Channel, DeviceModel, Key, transform_point
+from armcal.devices.base import Channel, DeviceModel, Key, named_group, transform_point
 from armcal.effects.effect_type import EffectType
 from armcal.effects.library import EffectSpec
 from armcal.effects.types.sensor_scale import SENSOR_SCALE
@@ -308,6 +308,10 @@ class SonicModel(DeviceModel):
         self.parameters = ParameterSet(tuple(entries))
         nominal = dict(zip(self.parameters.names, self.parameters.nominal))
         self.nominal_microphones = {m: np.array([nominal[f"mic.{m}.{c}"] for c in "xyz"]) for m in self.microphones}
+
+    def parameter_group(self, name: str) -> tuple[str, str] | None:
+        """A microphone's position, or the placement robot_base."""
+        return named_group(name, "mic", "microphone {}'s position") or super().parameter_group(name)
 
     def channels(self, key: Key) -> tuple[Channel, ...]:
         if self.mode == "points":

@@ -16,7 +16,7 @@ from typing import ClassVar, Literal
 
 from pydantic import Field
 
-from armcal.devices.base import Channel, DeviceModel, Key, declared, transform_point
+from armcal.devices.base import Channel, DeviceModel, Key, declared, named_group, transform_point
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, pose_entries
 from armcal.spec_parts.base import Length, SpecModel
@@ -128,6 +128,10 @@ class TheodoliteModel(DeviceModel):
         along = pd[second] - pd[first]
         pd[second] = pd[first] + along * self.spec.scale_bar.length / np.linalg.norm(along)
         return pd
+
+    def parameter_group(self, name: str) -> tuple[str, str] | None:
+        """A station's pose, or the placement robot_base."""
+        return named_group(name, "station", "station {}'s pose") or super().parameter_group(name)
 
     def channels(self, key: Key) -> tuple[Channel, ...]:
         if key == BAR_LENGTH:

@@ -20,7 +20,7 @@ from typing import ClassVar, Literal
 
 from pydantic import Field
 
-from armcal.devices.base import Channel, DeviceModel, Key, declared
+from armcal.devices.base import Channel, DeviceModel, Key, declared, named_group
 from armcal.effects.effect_type import EffectType
 from armcal.effects.library import EffectSpec
 from armcal.effects.types.sensor_scale import SENSOR_SCALE
@@ -146,6 +146,10 @@ class TrackerModel(DeviceModel):
 
     def stations(self) -> tuple[str, ...]:
         return tuple(self.spec.stations)
+
+    def parameter_group(self, name: str) -> tuple[str, str] | None:
+        """A station's frame, or the placement robot_base."""
+        return named_group(name, "station", "station {}'s pose") or super().parameter_group(name)
 
     def pose_keys(self) -> list[Key]:
         """Each target; with stations, each target at each station (every pose is read at every station)."""

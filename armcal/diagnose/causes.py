@@ -30,6 +30,7 @@ from scipy.special import chdtrc
 from armcal.diagnose.score import ABSORBED
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.kinematics.parallel_axes import PARALLEL_DEG
+from armcal.kinematics.params import parameter_group
 from armcal.spec.locations import yaml_path
 
 SHOWN = 4  # held groups named at most
@@ -44,18 +45,20 @@ def spec_key(name: str, spec) -> tuple[tuple, str]:
     return tuple(path), key
 
 
-def held_groups(parameters, held: set[str]) -> dict[str, list[int]]:
-    """The spec-held, non-effect parameters of ``parameters`` by group (a target's x, y, z together)."""
-    groups: dict[str, list[int]] = {}
+def held_groups(parameters, held: set[str], device) -> dict[str, tuple[str, list[int]]]:
+    """The spec-held, non-effect parameters of ``parameters`` by group (a target's x, y, z together), each with the
+    group's label (the robot's groups from kinematics/params.py, the instrument's from its ``device`` model)."""
+    groups: dict[str, tuple[str, list[int]]] = {}
     for i, e in enumerate(parameters.entries):
         if e.name in held and e.role != "effect":
-            key = e.name.rpartition(".")[0] if e.role in ("target",) or e.name.split(".")[0] in ("base", "tool", "robot_base", "pivot", "mic", "station") else e.name
-            groups.setdefault(key, []).append(i)
+            key, label = (device.parameter_group(e.name) if e.role == "device" else parameter_group(e)) or (e.name, e.name)
+            groups.setdefault(key, (label, []))[1].append(i)
     return groups
 
 
-def likely_causes(loaded, calibration) -> list[dict]:
-    """The ranked causes of a failed noise check (module docstring); [] when the check passes."""
+def likely_causes(loaded, calibration, device) -> list[dict]:
+    """The ranked causes of a failed noise check (module docstring), ``device`` the instrument's model; [] when the
+    check passes."""
     identified = calibration.identified
     result = identified.least_squares
     uncertainty = result.uncertainty
@@ -71,20 +74,20 @@ def likely_causes(loaded, calibration) -> list[dict]:
     base = [names.index(n) for n in result.identifiability.base]
     basis = np.linalg.qr(J[:, base])[0] if base else np.zeros((len(r), 0))
     held = {n for n, reason in result.identifiability.fixed if reason == "fixed in the spec"}
-    groups = held_groups(parameters, held)
+    groups = held_groups(parameters, held, device)
     joint_names = spec.robot.joint_names()
     causes = []
     tests = []
-    for group, columns in groups.items():
+    for label, columns in groups.values():
         drop, k = _drop(J[:, columns], basis, r)
         if k:
-            tests.append((group, columns, drop, k, float(chdtrc(k, drop / s2))))
-    for group, columns, drop, k, p in sorted(tests, key=lambda t: -t[2]):
+            tests.append((label, columns, drop, k, float(chdtrc(k, drop / s2))))
+    for label, columns, drop, k, p in sorted(tests, key=lambda t: -t[2]):
         if p > NOISE_CHECK_LEVEL / max(len(tests), 1) or len(causes) >= SHOWN:
             continue
         loc, key = spec_key(names[columns[0]], spec)
         fields = ", ".join(names[c].rpartition(".")[2] for c in columns)
-        what = _what(group, names[columns[0]], spec, joint_names)
+        what = _what(label, names[columns[0]], spec, joint_names)
         causes.append({
             "kind": "held_by_spec",
             "parameters": [names[c] for c in columns],
@@ -121,21 +124,16 @@ def _drop(columns: np.ndarray, basis: np.ndarray, r: np.ndarray) -> tuple[float,
     return float(np.sum((q.T @ r) ** 2)), rank
 
 
-def _what(group: str, first: str, spec, joint_names: list[str]) -> str:
-    """A group named as the user knows it: 'target s1's position', "Hayati's beta of parallel axes 2 and 3"."""
+def _what(label: str, first: str, spec, joint_names: list[str]) -> str:
+    """A group named as the user knows it: its ``label`` ('target s1's position'), or "Hayati's beta of parallel axes 2
+    and 3"."""
     head, _, field = first.rpartition(".")
     if head in joint_names and field == "beta":
         i = joint_names.index(head)
         joint = spec.robot.joints[i]
         if i + 1 < len(joint_names) and abs(math.sin(joint.alpha.value)) <= math.sin(math.radians(PARALLEL_DEG)):
             return f"Hayati's beta of the parallel axes {i + 1} and {i + 2} ({first}; convention mdh, or leave beta out in dh)"
-        return first
-    if group == first:
-        return first
-    kind = group.split(".")[0]
-    return {"pivot": f"pivot {group.split('.', 1)[-1]}'s position", "base": "the robot's base pose", "tool": "the tool frame",
-            "robot_base": "the robot's pose in the instrument frame", "mic": f"microphone {group.split('.', 1)[-1]}'s position",
-            "station": f"station {group.split('.', 1)[-1]}'s pose"}.get(kind, f"target {group}'s position")
+    return label
 
 
 def _candidate_causes(calibration) -> list[dict]:

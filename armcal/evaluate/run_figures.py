@@ -13,6 +13,7 @@ from armcal.diagnose.loop import HOLDS_OUT
 from armcal.diagnose.residual_model import CARRIED, OUTSIDE, Figures
 from armcal.spec.learned import JOINT_UNIT
 from armcal.evaluate.acceptance import acceptance_block
+from armcal.devices.base import DeviceModel
 from armcal.devices.registry import vocabulary
 from armcal.effects.library import EffectSpec
 from armcal.evaluate.features import evaluation
@@ -41,10 +42,10 @@ def reported_names(calibration: Calibration) -> set[str]:
 
 
 def run_figures(
-    loaded: LoadedSpec, calibration: Calibration, raw_rows: np.ndarray, tasks: dict, evidence: dict, plots: list[str], measured: dict
+    loaded: LoadedSpec, calibration: Calibration, device: DeviceModel, raw_rows: np.ndarray, tasks: dict, evidence: dict, plots: list[str], measured: dict
 ) -> dict:
     """The figures results.json reports, by its keys; ``parameters`` as the fitted entries, values and standard
-    deviations (internal units) with the base set and the held parameters' reasons."""
+    deviations (internal units) with the base set and the held parameters' reasons; ``device``: the instrument's model."""
     spec = loaded.spec
     reading_kind = spec.device.reading_kind
     _, unit = residual_unit(reading_kind)
@@ -103,7 +104,7 @@ def run_figures(
         },
         noise=noise_block(loaded, calibration.noise) if calibration.noise else None,
         noise_check={"chi2": uncertainty.chi2, "dof": uncertainty.dof, "p_value": uncertainty.p_value, "covariance_scaled": uncertainty.scaled, "verdict": uncertainty.verdict,
-                     "causes": likely_causes(loaded, calibration)},
+                     "causes": likely_causes(loaded, calibration, device)},
         correlations=[list(c) for c in uncertainty.correlations],
         correlation_matrix={"parameters": list(ident.base), "matrix": uncertainty.correlation.tolist()},
         campaign=measured,

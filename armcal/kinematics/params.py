@@ -89,6 +89,15 @@ class ParameterSet:
         return dict(zip(self.names, ca.vertsplit(vector)))
 
 
+def parameter_group(entry: ParameterInfo) -> tuple[str, str] | None:
+    """The group a robot parameter is freed with and the group's label: the base's or the tool's pose, a target's
+    position; None: a parameter on its own."""
+    head = entry.name.rpartition(".")[0]
+    if entry.role == "target":
+        return head, f"target {head}'s position"
+    return {"base": (head, "the robot's base pose"), "tool": (head, "the tool frame")}.get(head)
+
+
 def parameter_entry(name: str, kind: str, parameter: Parameter) -> ParameterInfo:
     """The entry of one spec parameter."""
     return ParameterInfo(name, kind, parameter.value, parameter.vary, parameter.min, parameter.max)

@@ -11,6 +11,7 @@ from armcal.devices import device_model
 from armcal.identify.identifiability import analyse
 from armcal.identify.problem import build_problem
 from armcal.kinematics.compiler import compile_robot
+from armcal.model.measurement import predict
 from armcal.kinematics.params import ParameterSet
 from armcal.procedures import plan
 from armcal.spec import load_spec
@@ -80,7 +81,7 @@ def measure(kinematics, device, planned, theta, rng) -> Measurements:
         if device.target(key) is None:
             values = device.evaluate(key, np.repeat(np.eye(4)[None], len(rows), 0), pd)
         else:
-            values = device.predict(kinematics, key, planned.q[rows], p, pd)
+            values = predict(kinematics, device, key, planned.q[rows], p, pd)
         if rng is not None:
             values = values + rng.normal(size=values.shape) * device.sigma(key, values)
         for c, channel in enumerate(device.channels(key)):

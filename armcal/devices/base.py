@@ -1,9 +1,9 @@
-"""What every measurement model provides, and its composition with the robot's kinematics.
+"""What every instrument's model provides: its readings of a measured pose, its data files, noise and simulation.
 
 A device model maps the pose of a measured point in the robot base frame and
 the device parameters to readings: g(T, p_device). Samples are grouped by a
 key (which target, pivot, station...); h(q, p_robot, p_device) = g(fk(q, p_robot), p_device)
-is one CasADi Function per key (composed, with the effects, in effects/measurement.py only),
+is one CasADi Function per key (composed, with the effects, in model/measurement.py only),
 evaluated for all samples of the key at once.
 
 A reading's sigma is the device's noise model (``noise_sigma``) times the factor
@@ -26,9 +26,7 @@ from types import MappingProxyType
 import casadi as ca
 import numpy as np
 
-from armcal.effects.measurement import EffectSet, extras_size
 from armcal.support.errors import UserError
-from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
 
 Key = tuple[str | None, ...]
@@ -259,19 +257,6 @@ class DeviceModel(ABC):
     def visible(self, key: Key, poses: np.ndarray, pd: np.ndarray | None = None) -> np.ndarray:
         """Which true target poses (N, 4, 4) give a valid reading (N,)."""
         return self.measurable(key, self.evaluate(key, poses, pd))
-
-    def predict(
-        self, kinematics: KinematicModel, key: Key, Q: np.ndarray, p: np.ndarray | None = None, pd: np.ndarray | None = None
-    ) -> np.ndarray:
-        """Readings (N, channels) of N samples of one key, one mapped call of the measurement function h with no
-        effects (built in one place, effects/measurement.py)."""
-        Q = np.atleast_2d(np.asarray(Q, dtype=float))
-        if len(Q) == 0:
-            return np.zeros((0, len(self.channels(key))))
-        p = kinematics.parameter_vector(p)
-        pd = self.parameters.nominal if pd is None else np.asarray(pd, dtype=float)
-        mapped = EffectSet().measurement_function(kinematics, self, key).map(len(Q))
-        return np.array(mapped(Q.T, np.zeros((extras_size(kinematics.dof), len(Q))), p, pd, np.zeros(0))).T
 
     def evaluate(self, key: Key, poses: np.ndarray, pd: np.ndarray | None = None) -> np.ndarray:
         """Readings (N, channels) for given target poses (N, 4, 4), e.g. of a simulated true robot."""

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Protocol
 
 import casadi as ca
 import numpy as np
@@ -41,19 +40,6 @@ from armcal.kinematics.params import ParameterSet
 
 GRAVITY = (0.0, 0.0, -9.81)  # m/s^2 in the robot base frame (z up)
 DEFAULT_LINK_MASS = 5.0  # kg at each link frame's origin when an effect names no masses
-
-
-class Instrument(Protocol):
-    """What the measurement model asks of an instrument: armcal/devices/base.py's DeviceModel, which builds on this
-    module (its ``key``: which target, pivot, station... a sample is read on)."""
-
-    parameters: ParameterSet
-
-    def channels(self, key: tuple) -> tuple: ...
-
-    def target(self, key: tuple) -> str | None: ...
-
-    def geometry(self, key: tuple) -> ca.Function: ...
 
 
 def extras_size(dof: int) -> int:
@@ -216,38 +202,22 @@ class EffectSet:
         lengths = ca.DM([1.0 if e.kind == "length" else 0.0 for e in kinematics.parameters.entries])
         return p + (self.length_factor(x, v, kinematics.dof) - 1) * (p * lengths)
 
-    def device_parameters(self, device: Instrument, pd, v: dict):
-        """pd with the instrument-side effects' shifts (a ball-bar pivot's offset)."""
-        shift = [0] * len(device.parameters)
+    def device_parameters(self, parameters: ParameterSet, pd, v: dict):
+        """pd, the instrument's ``parameters``, with the instrument-side effects' shifts (a ball-bar pivot's offset)."""
+        shift = [0] * len(parameters)
         for e in self.effects:
-            for index, change in e.kind.device_shift(e, device.parameters, _values(e, v)).items():
+            for index, change in e.kind.device_shift(e, parameters, _values(e, v)).items():
                 shift[index] = change
         return pd + ca.vertcat(*shift)
 
-    def readings(self, device: Instrument, key: tuple, y, v: dict):
-        """Readings with the instrument-side effects (a scale, a range's bias, the ball-bar's length offset)."""
-        channels = device.channels(key)
+    def readings(self, channels: tuple, y, v: dict):
+        """Readings y of these channels with the instrument-side effects (a scale, a range's bias, the ball-bar's
+        length offset)."""
         parts = [y[i] for i in range(len(channels))]
         for e in self.effects:
             value = _values(e, v)
             parts = [e.kind.reading(e, c, r, value) for r, c in zip(parts, channels)]
         return ca.vertcat(*parts)
-
-    def measurement_function(self, kinematics: KinematicModel, device: Instrument, key: tuple) -> ca.Function:
-        """h(q, x, p, pd, pe): the device's readings of a key's target, with every effect."""
-        n = kinematics.dof
-        q, x = ca.SX.sym("q", n), ca.SX.sym("x", extras_size(n))
-        p, pd = ca.SX.sym("p", len(kinematics.parameters)), ca.SX.sym("pd", len(device.parameters))
-        pe = ca.SX.sym("pe", len(self.parameters))
-        v = self.parameters.symbols(pe)
-        target = device.target(key)
-        if target is None:
-            pose = ca.SX.eye(4)
-        else:
-            qv, pv = self.joint_values(kinematics, q, x, p, v), self.robot_parameters(kinematics, x, p, v)
-            pose = self.bent(kinematics, kinematics.target_links[target], qv, pv, kinematics.targets[target](qv, pv), v)
-        y = device.geometry(key)(pose, self.device_parameters(device, pd, v))
-        return ca.Function("h", [q, x, p, pd, pe], [self.readings(device, key, y, v)], ["q", "x", "p", "pd", "pe"], ["y"])
 
     def joint_deviation_function(self, kinematics: KinematicModel) -> ca.Function:
         """(q, x, p, pe) -> joint deviations and the thermal length factor, for the simulator (a bending is no
@@ -263,17 +233,17 @@ class EffectSet:
         """pe at the effects' own values (a simulation's hidden amplitudes)."""
         return self.parameters.nominal
 
-    def reading_function(self, device: Instrument, key: tuple) -> ca.Function:
-        """(y, pe) -> readings with the instrument-side effects, for the simulator."""
-        y = ca.SX.sym("y", len(device.channels(key)))
+    def reading_function(self, channels: tuple) -> ca.Function:
+        """(y, pe) -> readings of these channels with the instrument-side effects, for the simulator."""
+        y = ca.SX.sym("y", len(channels))
         pe = ca.SX.sym("pe", len(self.parameters))
-        return ca.Function("readings", [y, pe], [self.readings(device, key, y, self.parameters.symbols(pe))])
+        return ca.Function("readings", [y, pe], [self.readings(channels, y, self.parameters.symbols(pe))])
 
-    def device_parameter_function(self, device: Instrument) -> ca.Function:
-        """(pd, pe) -> pd with pivot offsets, for the simulator."""
-        pd = ca.SX.sym("pd", len(device.parameters))
+    def device_parameter_function(self, parameters: ParameterSet) -> ca.Function:
+        """(pd, pe) -> pd, the instrument's ``parameters``, with pivot offsets, for the simulator."""
+        pd = ca.SX.sym("pd", len(parameters))
         pe = ca.SX.sym("pe", len(self.parameters))
-        return ca.Function("pivots", [pd, pe], [self.device_parameters(device, pd, self.parameters.symbols(pe))])
+        return ca.Function("pivots", [pd, pe], [self.device_parameters(parameters, pd, self.parameters.symbols(pe))])
 
 
 def gravity_torque_function(kinematics: KinematicModel) -> ca.Function:

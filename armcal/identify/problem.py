@@ -28,6 +28,7 @@ from armcal.identify.compiled import compiled
 from armcal.identify.threads import each, share
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
+from armcal.model.measurement import measurement_function
 
 
 @dataclass(frozen=True)
@@ -226,7 +227,7 @@ def combined_parameters(kinematics: KinematicModel, device: DeviceModel, effects
 
 def _value_and_jacobian(kinematics: KinematicModel, device: DeviceModel, effects: EffectSet, key: Key) -> ca.Function:
     """(q, x, theta) -> (readings, d readings / d theta) of one sample of a key, theta = [p; pd; pe]."""
-    h = effects.measurement_function(kinematics, device, key)
+    h = measurement_function(kinematics, device, key, effects)
     sizes = [h.size1_in(i) for i in range(5)]
     q, x, theta = ca.SX.sym("q", sizes[0]), ca.SX.sym("x", sizes[1]), ca.SX.sym("theta", sum(sizes[2:]))
     y = h(q, x, *ca.vertsplit(theta, np.cumsum([0] + sizes[2:]).tolist()))

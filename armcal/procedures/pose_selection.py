@@ -39,6 +39,7 @@ from armcal.effects.measurement import EffectSet
 from armcal.identify.identifiability import Identifiability, analyse
 from armcal.identify.problem import build_problem
 from armcal.kinematics.compiler import KinematicModel
+from armcal.model.measurement import predict
 from armcal.procedures.plan import Plan
 from armcal.procedures.poses import fixed_samples, random_keyed_plan
 from armcal.spec.document import Spec
@@ -157,7 +158,7 @@ def information(spec: Spec, kinematics: KinematicModel, device: DeviceModel, can
     readings: dict[str, np.ndarray] = {}
     for key in dict.fromkeys(plan.keys):
         rows = np.flatnonzero([k == key for k in plan.keys])
-        predicted = device.predict(kinematics, key, plan.q[rows])
+        predicted = predict(kinematics, device, key, plan.q[rows])
         for c, channel in enumerate(device.channels(key)):
             readings.setdefault(channel.name, np.full(len(plan), np.nan))[rows] = predicted[:, c]
     data = Measurements(plan.keys, plan.q, readings, {"t": np.zeros(len(plan))})

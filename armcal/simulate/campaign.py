@@ -104,7 +104,7 @@ def _true_device_parameters(device: DeviceModel, settings: fx.Simulate, effects:
     for i, entry in enumerate(device.parameters.entries):
         if entry.free and entry.kind != "scale":
             pd[i] += rng.normal() * (settings.sigma_p if entry.kind == "length" else settings.sigma_o)
-    pd = np.array(effects.device_parameter_function(device)(pd, effects.values())).ravel()
+    pd = np.array(effects.device_parameter_function(device.parameters)(pd, effects.values())).ravel()
     return device.true_parameters(pd)
 
 
@@ -170,6 +170,6 @@ def _true_readings(robot: TrueRobot, device: DeviceModel, key, pd: np.ndarray, e
     def read(Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         poses = robot.target_poses(target, Q, extras) if target else np.repeat(np.eye(4)[None], len(Q), 0)
         values = device.evaluate(key, poses, pd)
-        return poses, np.array(effects.reading_function(device, key).map(len(Q))(values.T, effects.values())).T
+        return poses, np.array(effects.reading_function(device.channels(key)).map(len(Q))(values.T, effects.values())).T
 
     return read

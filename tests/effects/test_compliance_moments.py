@@ -23,6 +23,7 @@ from armcal.effects.measurement import EffectSet, extras_size, moment_regressors
 from armcal.support.errors import SpecError
 from armcal.identify.fit import design_identifiability
 from armcal.kinematics.compiler import compile_robot
+from armcal.model.measurement import measurement_function
 from armcal.spec import load_spec
 from armcal.devices.registry import vocabulary
 from armcal.effects.types.joint_compliance import JOINT_COMPLIANCE
@@ -215,7 +216,7 @@ def test_bending_is_the_weight_moment_tilting_the_links_beyond_the_joint(tmp_pat
     K = 2e-4  # rad / (N m): a 2.5 kg payload 0.13 m off tilts the flange by about a milliradian
     effect = with_products(vocabulary()["joint_bending"], 5, moment_terms(5, 6), regrouped_products(5, PUMA_LAYOUT, K))
     effects = EffectSet((effect,))
-    h = effects.measurement_function(kinematics, device, ("smr",)).map(len(q))
+    h = measurement_function(kinematics, device, ("smr",), effects).map(len(q))
     predicted = np.array(h(q.T, np.zeros((extras_size(6), len(q))), kinematics.parameters.nominal, device.parameters.nominal, effects.values())).T
     F = frames(NOMINAL, q)
     z, o = F[4][:, :3, 2], F[4][:, :3, 3]

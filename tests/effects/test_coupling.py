@@ -20,6 +20,7 @@ from armcal.effects.library import from_spec, to_spec_dict
 from armcal.effects.types.joint_coupling import coupling as coupling_effect, coupling_pairs
 from armcal.effects.measurement import EffectSet, extras_size
 from armcal.kinematics.compiler import compile_robot
+from armcal.model.measurement import measurement_function
 from armcal.simulate.truth import TrueRobot
 from armcal.spec import load_spec
 from armcal.spec.sections import Simulate
@@ -52,7 +53,7 @@ def test_the_coupling_is_q3_plus_c_q2_in_a_numpy_dh_chain(tmp_path):
     expected = _numpy_readings(coupled)
 
     effects = EffectSet((coupling_effect(3, 2, values={"coefficient": C}),))
-    h = effects.measurement_function(kinematics, device, ("smr",)).map(len(q))
+    h = measurement_function(kinematics, device, ("smr",), effects).map(len(q))
     x = np.zeros((extras_size(6), len(q)))
     predicted = np.array(h(q.T, x, kinematics.parameters.nominal, device.parameters.nominal, effects.values())).T
     assert np.abs(predicted - expected).max() < 1e-9  # mm

@@ -75,7 +75,7 @@ def _write_inputs(folder: Path, case: str, count: int) -> None:
     from armcal.spec import load_spec
 
     (folder / "calibrated.yaml").write_text((ROOT / "specs" / "ur10.yaml").read_text().replace("armcal: 1\n", f"armcal: 1\n{HARMONIC}", 1))
-    kinematics = compile_robot(load_spec(folder / "calibrated.yaml").spec.robot)
+    kinematics = compile_robot(load_spec(folder / "calibrated.yaml").spec.robot.chain())
     lines = ["name,x,y,z,rx,ry,rz"]
     for i, T in enumerate(kinematics.tool_poses(_configurations(case, count))):
         x, y, z, rz, ry, rx = pose_from_matrix(T)

@@ -51,7 +51,7 @@ def naive(spec, calibration, names, start, base, pool):
 def case_e() -> list[str]:
     folder = ROOT / "examples" / "hidden_harmonic"
     spec = load_spec(folder / "spec.yaml").spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     raw = read_measurements(folder / "calibration.csv", spec)
     calibration, validation = device.prepare(raw), device.prepare(read_measurements(folder / "validation.csv", spec))
     diagnose = lambda: identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)  # noqa: E731

@@ -44,7 +44,7 @@ SONIC_POINTS = 100  # per joint
 
 def compare(name: str, spec, calibration, validation=None, start_from_data: bool = False, repeats: int = 15) -> list[str]:
     """Time armcal's fit and the baseline's on prepared data; the table line and a note."""
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     calibration = device.prepare(calibration)
     started = time.perf_counter()
     problem = build_problem(kinematics, device, calibration)

@@ -41,7 +41,7 @@ def child(side: str, samples: int) -> dict:
     """In a fresh process: the work of one side on ``samples`` samples; MiB above the resident set before it."""
     folder = ROOT / "examples" / "goswami_ballbar"
     spec = load_spec(folder / "spec.yaml").spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     small = read_measurements(folder / "calibration.csv", spec)
     problem = build_problem(kinematics, device, small)
     names, start = problem.parameters.names, problem.parameters.nominal

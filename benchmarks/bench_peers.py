@@ -148,7 +148,7 @@ def run_armcal(case: Case) -> dict:
     """armcal's geometric fit and scipy's LM baseline; the peers' common start comes from armcal's."""
     spec = case.spec
     started = time.perf_counter()
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     calibration = device.prepare(case.calibration)
     problem = build_problem(kinematics, device, calibration)
     start = starting_values(problem, kinematics, device, calibration) if case.start_from_data else problem.parameters.nominal

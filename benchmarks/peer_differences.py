@@ -134,7 +134,7 @@ def geometric_fit(case: Case, variant: Variant, off_axis: dict[str, float]):
         (Path(folder) / "spec.yaml").write_text(text)
         spec = load_spec(Path(folder) / "spec.yaml").spec
     calibration = read_measurements(case.calibration, spec)
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     data = device.prepare(calibration)
     problem = build_problem(kinematics, device, data)
     start = starting_values(problem, kinematics, device, data)

@@ -61,7 +61,7 @@ def paired_error(planned: np.ndarray, random: np.ndarray) -> float:
 
 def study(spec_path: Path, region: str, oriented: bool, runs: int, counts=COUNTS, seed: int = 0):
     loaded = load_spec(spec_path)
-    where = working_region(loaded.spec, compile_robot(loaded.spec.robot), region, oriented)
+    where = working_region(loaded.spec, compile_robot(loaded.spec.robot.chain()), region, oriented)
     plan_study = PlanStudy(loaded.spec, loaded.path.parent, CANDIDATES, seed, criterion="I", region=where)
     curve = accuracy_curve(plan_study, counts, runs, factors=(1, 3), criteria=("I", "D"), region_factors=(1, 3))
     rows = []

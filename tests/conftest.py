@@ -47,7 +47,7 @@ def shipped_specs() -> list[Path]:
 @pytest.fixture(scope="session")
 def puma_models():
     """The PUMA 560 of Table 6-2 compiled in the three conventions."""
-    return {name: compile_robot(load_spec(SPECS / f"{name}.yaml").spec.robot) for name in ("puma560_dh", "puma560_smodel", "puma560_six")}
+    return {name: compile_robot(load_spec(SPECS / f"{name}.yaml").spec.robot.chain()) for name in ("puma560_dh", "puma560_smodel", "puma560_six")}
 
 
 def random_configurations(model, count: int, seed: int = 0) -> np.ndarray:

@@ -37,7 +37,7 @@ def setup(spec_path: Path, text_changes=()) -> Setup:
         path = Path(scratch) / spec_path.name
         path.write_text(text)
         spec = load_spec(path).spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     plans = [plan(p, kinematics, device, spec, spec_path.parent) for p in (spec.procedure, spec.validation or spec.procedure)]
     probe = build_problem(kinematics, device, measure(kinematics, device, plans[0], None, None))
     _, J = probe.evaluate(probe.parameters.nominal)

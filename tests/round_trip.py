@@ -18,7 +18,7 @@ def _stages(spec_path):
     """What `armcal run` builds before it fits: the spec, the compiled models and the prepared data."""
     spec = load_spec(spec_path).spec
     folder = spec_path.parent
-    kinematics = compile_robot(spec.robot)
+    kinematics = compile_robot(spec.robot.chain())
     raw = read_measurements(folder / spec.data.calibration, spec)
     device = fitted_device(spec, raw)
     validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None

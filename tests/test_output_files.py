@@ -76,7 +76,7 @@ def test_a_target_named_like_a_formula_is_written_as_text(name):
     from armcal.spec import load_spec
 
     loaded = load_spec(ROOT / "specs" / "puma560_dh.yaml")
-    x, y, z, rz, ry, rx = pose_from_matrix(compile_robot(loaded.spec.robot).tool_poses(np.radians([[10, -40, 150, 5, 30, 20]]))[0])
+    x, y, z, rz, ry, rx = pose_from_matrix(compile_robot(loaded.spec.robot.chain()).tool_poses(np.radians([[10, -40, 150, 5, 30, 20]]))[0])
     row = [name.replace('"', '""'), *(f"{v:.9g}" for v in (x / 10, y / 10, z / 10, *np.degrees([rx, ry, rz])))]  # cm, deg
     text, _, _, _ = compensate(loaded, None, "name,x,y,z,rx,ry,rz\n" + ",".join(f'"{c}"' for c in row) + "\n", "targets")
     written = next(csv.DictReader(text.splitlines()))["name"]

@@ -43,7 +43,7 @@ def puma(tmp_path_factory):
     path = folder / "spec.yaml"
     path.write_text(sim.spec_text("puma560", "tracker"))
     loaded = load_spec(path)
-    kinematics, device = compile_robot(loaded.spec.robot), device_model(loaded.spec)
+    kinematics, device = compile_robot(loaded.spec.robot.chain()), device_model(loaded.spec)
     Q = np.radians(sim.sample_configurations("puma560", 400, np.random.default_rng(5)))
     candidates = ps.keyed_candidates(Q, kinematics, device)
     return loaded, candidates, ps.information(loaded.spec, kinematics, device, candidates)

@@ -83,7 +83,7 @@ def _joints(rows) -> np.ndarray:
 
 def _commands(loaded, results, registration: np.ndarray, measured: np.ndarray, seeds: np.ndarray):
     """armcal compensate for the tool frames that put the T-Mac at the measured frames: (commands, reached)."""
-    chain = compile_robot(loaded.spec.robot)
+    chain = compile_robot(loaded.spec.robot.chain())
     zero = np.zeros((1, 6))
     probe = np.linalg.inv(chain.tool_poses(zero)[0]) @ chain.target_poses("tmac", zero)[0]
     lines = ["name,x,y,z,rx,ry,rz," + ",".join(f"q{i}" for i in range(1, 7))]
@@ -106,7 +106,7 @@ def _check_compensation(tmp_path, results) -> None:
     base = calibrated.spec.device.robot_base
     registration = np.array(xyz_zyx(*(getattr(base, c).value for c in ("x", "y", "z", "rz", "ry", "rx"))), dtype=float)
     nominal = load_spec(SPECS / "ur10.yaml")
-    chain = compile_robot(nominal.spec.robot)
+    chain = compile_robot(nominal.spec.robot.chain())
     tmac = lambda Q: chain.target_poses("tmac", Q)[:, :3, 3]  # noqa: E731
     nominal_registration = kabsch(tmac(_joints(C)), _poses(C)[:, :3, 3])
     measured, joints = _poses(B), _joints(B)

@@ -98,7 +98,7 @@ def plan_command(spec_path: Path, poses: int, candidates: int, extend: Path | No
         from armcal.kinematics.compiler import compile_robot
 
         say(f"working region: {region}, poses at {'the task' if orientation == 'task' else 'any'} orientation ...")
-        where = working_region(spec, compile_robot(spec.robot), region, orientation == "task")
+        where = working_region(spec, compile_robot(spec.robot.chain()), region, orientation == "task")
     study = PlanStudy(spec, loaded.path.parent, candidates, seed, existing, criterion, where)
     if study.pool < poses:
         raise UserError(f"only {study.pool} of {candidates} candidates are readable ({_dropped(study.fresh_dropped)}); "
@@ -128,7 +128,7 @@ def _existing(spec, extend: Path | None) -> tuple[np.ndarray, tuple | None, ps.C
     from armcal.kinematics.compiler import compile_robot
 
     Q, keys = read_pose_file(extend, spec)
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     if device.keyed_poses:
         if keys is None:
             raise UserError(f"{extend}: a {device.type} plan needs its {' and '.join(device.key_columns)} columns")

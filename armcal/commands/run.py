@@ -69,7 +69,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     spec = loaded.spec
     folder = loaded.path.parent
     calibration_path = folder / spec.data.calibration
-    kinematics = compile_robot(spec.robot)
+    kinematics = compile_robot(spec.robot.chain())
     with stage("reading the data"):
         raw = read_measurements(calibration_path, spec)
         device = fitted_device(spec, raw)

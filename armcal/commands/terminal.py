@@ -48,7 +48,7 @@ def spec_summary(loaded: LoadedSpec) -> str:
         f"  device     {spec.device.type}",
         f"  procedure  {spec.procedure.type}" + (f", validation {spec.validation.type}" if spec.validation else ""),
     ]
-    for axes in parallel_axes(robot):
+    for axes in parallel_axes(robot.chain()):
         done = [f"Hayati's {axes.name}.beta added (free, 0)"] if axes.beta_added else []
         done += [f"{axes.name}.d held"] if axes.d_held else []
         lines.append(f"  parallel   axes {axes.joint} and {axes.joint + 1}" + (": " + ", ".join(done) if done else ""))
@@ -62,7 +62,7 @@ def spec_parameters(spec):
     from armcal.effects.measurement import EffectSet
     from armcal.identify.problem import combined_parameters
 
-    return combined_parameters(compile_robot(spec.robot), device_model(spec, spec.fit.sonic_readings), EffectSet(tuple(from_spec(e) for e in spec.effects)))
+    return combined_parameters(compile_robot(spec.robot.chain()), device_model(spec, spec.fit.sonic_readings), EffectSet(tuple(from_spec(e) for e in spec.effects)))
 
 
 def parse_joint_values(loaded: LoadedSpec, text: str) -> np.ndarray:
@@ -90,7 +90,7 @@ def parse_joint_values(loaded: LoadedSpec, text: str) -> np.ndarray:
 def forward_kinematics_report(loaded: LoadedSpec, q_text: str, target: str | None) -> str:
     """The nominal pose of the tool (or a target) at one configuration, in the spec's units."""
     robot = loaded.spec.robot
-    model = compile_robot(robot)
+    model = compile_robot(robot.chain())
     q = parse_joint_values(loaded, q_text)
     if target is not None and target not in model.targets:
         raise UserError(f"unknown target '{target}'; targets: {', '.join(model.targets) or 'none'}")

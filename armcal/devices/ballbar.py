@@ -21,7 +21,7 @@ from armcal.effects.library import EffectSpec
 from armcal.kinematics import ik
 from armcal.kinematics.params import ParameterSet, parameter_entry, point_entries
 from armcal.kinematics.transforms import on_sphere
-from armcal.spec_parts.base import Length, LengthParam, Parameter, SpecModel
+from armcal.spec_parts.base import Length, LengthParam, Parameter, SpecModel, declared_points
 from armcal.spec_parts.robot import Offset
 from armcal.spec_parts.starter import mm
 from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
@@ -170,8 +170,8 @@ class BallBarModel(DeviceModel):
 
     def __init__(self, spec: BallBar):
         self.spec = spec
-        entries = point_entries("pivot", spec.pivots)
-        entries.append(parameter_entry("bar.length", "length", spec.length))
+        entries = point_entries("pivot", declared_points(spec.pivots))
+        entries.append(parameter_entry("bar.length", "length", spec.length.declared()))
         self.parameters = ParameterSet(tuple(entries))
 
     def parameter_group(self, name: str) -> tuple[str, str] | None:

@@ -34,7 +34,7 @@ from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, parameter_set, pose_entries
-from armcal.spec_parts.base import AngleParam, Length, LengthParam, Number, SpecModel, fixed
+from armcal.spec_parts.base import AngleParam, Length, LengthParam, Number, SpecModel, declared_pose, fixed
 from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma
 from armcal.spec_parts.robot import Pose
 from armcal.spec_parts.starter import flange_point, mm, random_poses
@@ -82,7 +82,7 @@ def tilted_normal(plane: Plane, tilt1, tilt2, symbolic: bool = False):
 
 def _holds_a_length(robot) -> bool:
     """Whether the spec holds a nonzero length of the robot's chain, tool or targets (a scale the fit keeps)."""
-    return any(e.kind == "length" and not e.free and not e.reason and e.nominal != 0 for e in parameter_set(robot).entries)
+    return any(e.kind == "length" and not e.free and not e.reason and e.nominal != 0 for e in parameter_set(robot.chain()).entries)
 
 
 class PlaneContact(DeviceSpec):
@@ -183,9 +183,9 @@ class PlaneContactModel(DeviceModel):
 
     def __init__(self, spec: PlaneContact):
         self.spec = spec
-        entries = pose_entries("robot_base", spec.robot_base)
+        entries = pose_entries("robot_base", declared_pose(spec.robot_base))
         for name, plane in spec.planes.items():
-            entries += [parameter_entry(f"plane.{name}.{f}", "length" if f == "offset" else "angle", getattr(plane, f)) for f in PLANE_FIELDS]
+            entries += [parameter_entry(f"plane.{name}.{f}", "length" if f == "offset" else "angle", getattr(plane, f).declared()) for f in PLANE_FIELDS]
         self.parameters = ParameterSet(tuple(entries))
 
     def channels(self, key: Key) -> tuple[Channel, ...]:

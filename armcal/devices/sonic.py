@@ -30,7 +30,7 @@ from armcal.support.errors import UserError
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, point_entries, pose_entries
 from armcal.kinematics.transforms import xyz_zyx
-from armcal.spec_parts.base import Length, LengthParam, Number, Parameter, ScaleParam, SpecModel, fixed
+from armcal.spec_parts.base import Length, LengthParam, Number, Parameter, ScaleParam, SpecModel, declared_pose, declared_points, fixed
 from armcal.spec_parts.starter import mm
 from armcal.spec_parts.instrument import AUTO, ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, Point, is_auto
 from armcal.spec_parts.robot import Pose
@@ -303,8 +303,8 @@ class SonicModel(DeviceModel):
         self.mode = mode
         self.averaging = averaging
         self.microphones = tuple(spec.microphones)
-        entries = pose_entries("robot_base", spec.robot_base) + point_entries("mic", spec.microphones)
-        entries.append(parameter_entry("sonic.scale", "scale", spec.scale))
+        entries = pose_entries("robot_base", declared_pose(spec.robot_base)) + point_entries("mic", declared_points(spec.microphones))
+        entries.append(parameter_entry("sonic.scale", "scale", spec.scale.declared()))
         self.parameters = ParameterSet(tuple(entries))
         nominal = dict(zip(self.parameters.names, self.parameters.nominal))
         self.nominal_microphones = {m: np.array([nominal[f"mic.{m}.{c}"] for c in "xyz"]) for m in self.microphones}

@@ -21,7 +21,7 @@ from pydantic import Field
 from armcal.devices.base import Channel, DeviceModel, Key, declared
 from armcal.kinematics import ik
 from armcal.kinematics.params import ParameterSet, point_entries
-from armcal.spec_parts.base import Length, SpecModel
+from armcal.spec_parts.base import Length, SpecModel, declared_points
 from armcal.spec_parts.starter import flange_point, mm
 from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, DeviceSpec, LengthSigma, Point
 
@@ -122,7 +122,7 @@ class SphereSocketModel(DeviceModel):
 
     def __init__(self, spec: SphereSocket):
         self.spec = spec
-        self.parameters = ParameterSet(tuple(point_entries("socket", spec.sockets)))
+        self.parameters = ParameterSet(tuple(point_entries("socket", declared_points(spec.sockets))))
 
     def channels(self, key: Key) -> tuple[Channel, ...]:
         return (Channel("length", "length"),) if _certified(key) else RESIDUALS

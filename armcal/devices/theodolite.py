@@ -19,7 +19,7 @@ from pydantic import Field
 from armcal.devices.base import Channel, DeviceModel, Key, declared, named_group, transform_point
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, pose_entries
-from armcal.spec_parts.base import Length, SpecModel
+from armcal.spec_parts.base import Length, SpecModel, declared_pose
 from armcal.spec_parts.starter import mm, flange_point, random_poses
 from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, AngleSigma, DeviceSpec, Point
 from armcal.spec_parts.robot import Pose
@@ -111,12 +111,12 @@ class TheodoliteModel(DeviceModel):
 
     def __init__(self, spec: Theodolite):
         self.spec = spec
-        entries = pose_entries("robot_base", spec.robot_base)
+        entries = pose_entries("robot_base", declared_pose(spec.robot_base))
         for name, station in spec.stations.items():
-            entries += pose_entries(f"station.{name}", station.pose)
+            entries += pose_entries(f"station.{name}", declared_pose(station.pose))
         if spec.scale_bar is not None:
             for end, point in zip(BAR_ENDS, (spec.scale_bar.end1, spec.scale_bar.end2)):
-                entries += pose_entries(end, point, ("x", "y", "z"))
+                entries += pose_entries(end, declared_pose(point))
         self.parameters = ParameterSet(tuple(entries))
 
     def true_parameters(self, pd: np.ndarray) -> np.ndarray:

@@ -27,7 +27,7 @@ from armcal.effects.types.sensor_scale import SENSOR_SCALE
 from armcal.kinematics.compiler import pose_from_symbols
 from armcal.kinematics.params import ParameterSet, parameter_entry, pose_entries
 from armcal.kinematics.transforms import POSE_FIELDS, pose_from_matrix, rigid_registration
-from armcal.spec_parts.base import ScaleParam, SpecModel, fixed
+from armcal.spec_parts.base import ScaleParam, SpecModel, declared_pose, fixed
 from armcal.spec_parts.starter import mm, flange_point, random_poses
 from armcal.spec_parts.instrument import ESTIMATE_HELP, GROUPS_HELP, AngleSigma, DeviceSpec, LengthSigma
 from armcal.spec_parts.robot import Pose
@@ -128,10 +128,10 @@ class TrackerModel(DeviceModel):
 
     def __init__(self, spec: Tracker):
         self.spec = spec
-        entries = pose_entries("robot_base", spec.robot_base)
-        entries.append(parameter_entry("tracker.scale", "scale", spec.scale))
+        entries = pose_entries("robot_base", declared_pose(spec.robot_base))
+        entries.append(parameter_entry("tracker.scale", "scale", spec.scale.declared()))
         for name, station in spec.stations.items():
-            entries += pose_entries(_frame(name), station.robot_base)
+            entries += pose_entries(_frame(name), declared_pose(station.robot_base))
         self.parameters = ParameterSet(tuple(entries))
 
     def key_of(self, values: tuple) -> Key:

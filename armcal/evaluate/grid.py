@@ -247,7 +247,7 @@ def evaluation_tasks(spec, kinematics, calibrated, truth: dict | None) -> dict:
         why = "it needs the true robot, known for simulated data only (the truth.json armcal simulate writes beside them)"
         return {task: {"skipped": why} for task in spec.report.tasks}
     recorded, names = set(truth.get("parameters", {})), set(kinematics.parameters.names)
-    added = {f"{axes.name}.beta" for axes in parallel_axes(spec.robot) if axes.beta_added}  # at 0 in a record made before
+    added = {f"{axes.name}.beta" for axes in parallel_axes(spec.robot.chain()) if axes.beta_added}  # at 0 in a record made before
     if not recorded <= names or names - recorded - added or len(truth["encoder_errors"]) != kinematics.dof:
         why = "the data's truth.json describes a robot of another model than this spec's (simulated from another spec)"
         return {task: {"skipped": why} for task in spec.report.tasks}

@@ -63,7 +63,7 @@ def run_model(folder: Path, results: dict) -> RunModel | None:
     if matrix is None:
         return None
     robot = load_spec(folder / "calibrated.yaml").spec.robot
-    model = compile_robot(robot)
+    model = compile_robot(robot.chain())
     rows = {p["name"]: p for p in results["parameters"]}
     names = model.parameters.names
     order = {name: k for k, name in enumerate(matrix["parameters"])}

@@ -76,7 +76,7 @@ def run_figures(
             "flat_directions": list(result.conditioning.flat),
             "parallel_axes": [
                 {"joints": (p.joint, p.joint + 1), "added": f"{p.name}.beta" if p.beta_added else None, "held": f"{p.name}.d" if p.d_held else None}
-                for p in parallel_axes(spec.robot)
+                for p in parallel_axes(spec.robot.chain())
             ],
         },
         parameters={"entries": [e for e, _, _ in entries], "values": np.array([v for _, v, _ in entries]), "std": np.array([s for _, _, s in entries]),

@@ -120,7 +120,7 @@ def _targets_at_radius(spec: Spec, procedure: CirclePoint, radius: float):
     signature configuration), only its distance R_i changes (Stone 7.4.5).
     """
     robot = spec.robot
-    kinematics = compile_robot(robot)
+    kinematics = compile_robot(robot.chain())
     frames = kinematics.link_frames(np.asarray(procedure.signature))
     targets = dict(robot.targets)
     for joint, name in enumerate(procedure.targets, start=1):

@@ -66,7 +66,7 @@ def export(path: Path, fmt: str) -> Export:
     if fmt == "json":
         return Export(parameters_json(loaded, results), (), learned)
     if fmt == "urdf":
-        text, scaled = urdf(spec, compile_robot(spec.robot), effects)
+        text, scaled = urdf(spec, compile_robot(spec.robot.chain()), effects)
         return Export(text, effects + scaled, learned)
     if fmt == "ur-calibration":
         return Export(*ur_calibration(loaded, effects), learned)

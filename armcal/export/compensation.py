@@ -108,7 +108,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     """(CSV text of the commands, the targets not reached with why, the effects not compensated, what to say of the
     learned residual model: None where there is none)."""
     spec = loaded.spec
-    kinematics = compile_robot(spec.robot)
+    kinematics = compile_robot(spec.robot.chain())
     joints = list(zip([f"q{i}" for i in range(1, kinematics.dof + 1)], kinematics.joint_types))
     labels, goals, seeds = _targets(targets_text, targets_name, spec)
     effects = [from_spec(e) for e in spec.effects]

@@ -27,13 +27,13 @@ def _values(loaded: LoadedSpec) -> tuple[dict[str, float], str]:
     """Each table entry's value (``joint.column``, ``base.x``, ``tool.rz``: mm, rad) and where the rows come from."""
     robot = loaded.spec.robot
     if robot.convention in ("dh", "mdh"):
-        return {e.name: e.nominal for e in parameter_set(robot).entries}, f"calibrated {robot.convention.upper()} parameters"
+        return {e.name: e.nominal for e in parameter_set(robot.chain()).entries}, f"calibrated {robot.convention.upper()} parameters"
     scaled = [f"{name} (k = {joint.k.value:g})" for name, joint in zip(robot.joint_names(), robot.joints)
               if robot.convention == "six_parameter" and joint.k.value != 1.0]
     if scaled:
         raise UserError(f"{loaded.path}: a DH table's joints move by their readings (theta + q); the encoder scale of "
                         f"{', '.join(scaled)} is not 1, so no table holds the chain (export urdf or json)")
-    kinematics = compile_robot(robot)
+    kinematics = compile_robot(robot.chain())
     frames = kinematics.link_frames(np.zeros(kinematics.dof))
     chain = dh_chain(list(frames[:-1]), kinematics.tool_poses(np.zeros((1, kinematics.dof)))[0], list(kinematics.joint_names))
     values = {f"{frame}.{field}": value for frame, T in (("base", chain.base), ("tool", chain.tool))

@@ -21,7 +21,7 @@ def parameters_json(loaded: LoadedSpec, results: dict | None) -> str:
     spec = loaded.spec
     std = {p["name"]: p["std"] for p in results["parameters"]} if results else {}
     rows = []
-    for entry in parameter_set(spec.robot).entries:
+    for entry in parameter_set(spec.robot.chain()).entries:
         unit = spec.robot.units.of(entry.kind)
         rows.append({
             "name": entry.name,

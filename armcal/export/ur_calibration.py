@@ -45,7 +45,7 @@ def ur_calibration(loaded: LoadedSpec, effects: tuple[str, ...]) -> tuple[str, t
             f"{loaded.path}: the UR driver's kinematics file holds six revolute joints of a DH chain; "
             f"this robot is {robot.convention} with {robot.dof} joints (export urdf instead)"
         )
-    entries = parameter_set(robot).entries
+    entries = parameter_set(robot.chain()).entries
     value = {e.name: e.nominal for e in entries}
     at = lambda joint, field: value.get(f"{joint}.{field}", 0.0)  # noqa: E731
     names = robot.joint_names()

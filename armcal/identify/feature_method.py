@@ -76,7 +76,7 @@ def feature_parameters(spec: Spec, points: Measurements, parameters: ParameterSe
     base = xyz_zyx(*(getattr(robot.base, f).value for f in POSE))
     for field, value in zip(POSE, pose_from_matrix(pseudo.base @ inverse(base))):
         set_value(f"robot_base.{field}", value)
-    chain = compile_robot(DHRobot.model_validate(pseudo.robot_dict("features", "-", np.array([j.limits for j in robot.joints])), context={"units": {"length": "mm", "angle": "rad"}}))
+    chain = compile_robot(DHRobot.model_validate(pseudo.robot_dict("features", "-", np.array([j.limits for j in robot.joints])), context={"units": {"length": "mm", "angle": "rad"}}).chain())
     for i, (target, (xyz, _)) in enumerate(zip(procedure.targets, sweeps), start=1):
         rows = np.array([key == (target,) for key in points.keys])
         frames = chain.link_frames_batch(points.q[rows])[:, i]

@@ -1,5 +1,4 @@
-"""Compile a spec robot into CasADi forward-kinematics Functions (kinematics reads the robot section by its fields and
-imports no spec module: docs/architecture.md).
+"""Compile a declared chain (kinematics/chain.py, built by the spec) into CasADi forward-kinematics Functions.
 
 Every convention is assembled as one chain: F_0 = base (times Goswami's first
 link), F_i = F_{i-1} A_i(q_i), tool = F_n * tool. The z axis of F_{i-1} is
@@ -14,6 +13,7 @@ import casadi as ca
 import numpy as np
 
 from armcal.kinematics import conventions
+from armcal.kinematics.chain import DeclaredChain
 from armcal.kinematics.masses import LumpedMass
 from armcal.kinematics.params import LINK_FIELDS, ParameterSet, parameter_set
 from armcal.kinematics.transforms import compose, trans, xyz_zyx
@@ -73,15 +73,14 @@ def _batch(function: ca.Function, Q: np.ndarray, p: np.ndarray) -> np.ndarray:
     return out.reshape(4, n_samples, 4).transpose(1, 0, 2)
 
 
-def compile_robot(robot) -> KinematicModel:
-    """Build the symbolic chain of a spec robot (the spec's ``robot`` section, read by its fields) and wrap it in
-    CasADi Functions."""
-    parameters = parameter_set(robot)
+def compile_robot(chain: DeclaredChain) -> KinematicModel:
+    """Build the symbolic chain of a declared chain and wrap it in CasADi Functions."""
+    parameters = parameter_set(chain)
     p = ca.SX.sym("p", len(parameters))
     symbol = parameters.symbols(p)
-    q = ca.SX.sym("q", robot.dof)
-    joint_types = tuple(j.type for j in robot.joints)  # type: ignore[attr-defined]
-    first, links = _chain(robot, symbol, ca.vertsplit(q), joint_types)
+    q = ca.SX.sym("q", chain.dof)
+    joint_types = tuple(j.type for j in chain.joints)
+    first, links = _chain(chain, symbol, ca.vertsplit(q), joint_types)
 
     frames = [compose(pose_from_symbols(symbol, "base"), first)]
     for link in links:
@@ -89,7 +88,7 @@ def compile_robot(robot) -> KinematicModel:
     tool = compose(frames[-1], pose_from_symbols(symbol, "tool"))
 
     targets = {}
-    for number, (name, target) in enumerate(robot.targets.items(), start=1):
+    for number, (name, target) in enumerate(chain.targets.items(), start=1):
         pose = trans(symbol[f"{name}.x"], symbol[f"{name}.y"], symbol[f"{name}.z"])
         if target.is_frame:
             pose = pose_from_symbols(symbol, name)
@@ -97,17 +96,17 @@ def compile_robot(robot) -> KinematicModel:
         targets[name] = ca.Function(f"fk_target_{number}", [q, p], [compose(frames[target.link], pose)], ["q", "p"], ["T"])
 
     return KinematicModel(
-        name=robot.name,
-        convention=robot.convention,  # type: ignore[attr-defined]
-        joint_names=tuple(robot.joint_names()),
+        name=chain.name,
+        convention=chain.convention,
+        joint_names=tuple(chain.joint_names()),
         joint_types=joint_types,
-        limits=np.array([j.limits for j in robot.joints], dtype=float),  # type: ignore[attr-defined]
+        limits=np.array([j.limits for j in chain.joints], dtype=float),
         parameters=parameters,
         fk=ca.Function("fk", [q, p], [tool], ["q", "p"], ["T"]),
         frames=ca.Function("frames", [q, p], [ca.horzcat(*frames)], ["q", "p"], ["F"]),
         targets=targets,
-        target_links={name: target.link for name, target in robot.targets.items()},
-        masses=tuple(LumpedMass(m.link, m.mass, (m.x, m.y, m.z)) for m in robot.masses),
+        target_links={name: target.link for name, target in chain.targets.items()},
+        masses=chain.masses,
     )
 
 
@@ -117,10 +116,10 @@ def pose_from_symbols(symbol: dict, prefix: str):
     return xyz_zyx(get("x"), get("y"), get("z"), get("rz"), get("ry"), get("rx"))
 
 
-def _chain(robot, symbol: dict, q: list, joint_types: tuple[str, ...]):
+def _chain(chain: DeclaredChain, symbol: dict, q: list, joint_types: tuple[str, ...]):
     """(first, [A_1..A_n]): the constant transform after the base and each joint's link transform."""
-    names = robot.joint_names()
-    convention = robot.convention  # type: ignore[attr-defined]
+    names = chain.joint_names()
+    convention = chain.convention
     links = []
     for i, (name, qi, kind) in enumerate(zip(names, q, joint_types), start=1):
         s = {key[len(name) + 1 :]: value for key, value in symbol.items() if key.startswith(f"{name}.")}

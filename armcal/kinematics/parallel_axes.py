@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from armcal.kinematics.chain import DeclaredChain
+
 PARALLEL_DEG = 5.0  # consecutive axes closer than this to parallel get Hayati's beta
 
 
@@ -36,15 +38,15 @@ class ParallelAxes:
         )
 
 
-def parallel_axes(robot) -> list[ParallelAxes]:
-    """The joints of a ``dh`` robot whose axis is parallel (within PARALLEL_DEG) to the next joint's."""
-    if robot.convention != "dh":
+def parallel_axes(chain: DeclaredChain) -> list[ParallelAxes]:
+    """The joints of a ``dh`` chain whose axis is parallel (within PARALLEL_DEG) to the next joint's."""
+    if chain.convention != "dh":
         return []
     out = []
-    names = robot.joint_names()
-    for i, (joint, following) in enumerate(zip(robot.joints[:-1], robot.joints[1:]), start=1):
-        if abs(math.sin(joint.alpha.value)) > math.sin(math.radians(PARALLEL_DEG)):
+    for i, (joint, following) in enumerate(zip(chain.joints[:-1], chain.joints[1:]), start=1):
+        if abs(math.sin(joint.parameters["alpha"].value)) > math.sin(math.radians(PARALLEL_DEG)):
             continue
-        beta_free = joint.beta is None or joint.beta.vary
-        out.append(ParallelAxes(i, names[i - 1], joint.beta is None, beta_free and joint.d.vary and following.d.vary))
+        beta = joint.parameters.get("beta")
+        beta_free = beta is None or beta.vary
+        out.append(ParallelAxes(i, joint.name, beta is None, beta_free and joint.parameters["d"].vary and following.parameters["d"].vary))
     return out

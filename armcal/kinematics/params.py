@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
+from armcal.kinematics.chain import DeclaredChain, DeclaredParameter, DeclaredPose
 from armcal.kinematics.parallel_axes import parallel_axes
 from armcal.support.units import INTERNAL_UNIT
 
@@ -98,53 +99,46 @@ def parameter_group(entry: ParameterInfo) -> tuple[str, str] | None:
     return {"base": (head, "the robot's base pose"), "tool": (head, "the tool frame")}.get(head)
 
 
-def parameter_entry(name: str, kind: str, parameter: Parameter) -> ParameterInfo:
-    """The entry of one spec parameter."""
+def parameter_entry(name: str, kind: str, parameter: DeclaredParameter) -> ParameterInfo:
+    """The entry of one declared parameter."""
     return ParameterInfo(name, kind, parameter.value, parameter.vary, parameter.min, parameter.max)
 
 
-def pose_entries(prefix: str, pose, fields=POSE_FIELDS) -> list[ParameterInfo]:
-    """Entries ``prefix.field`` of a spec object's parameters (absent optional ones skipped)."""
-    out = []
-    for field in fields:
-        parameter = getattr(pose, field)
-        if parameter is not None:
-            out.append(parameter_entry(f"{prefix}.{field}", field_kind(field), parameter))
-    return out
+def pose_entries(prefix: str, pose: DeclaredPose) -> list[ParameterInfo]:
+    """Entries ``prefix.field`` of a pose's (a point's, a link's) declared parameters, in its order."""
+    return [parameter_entry(f"{prefix}.{field}", field_kind(field), parameter) for field, parameter in pose.items()]
 
 
-def point_entries(prefix: str, points: dict) -> list[ParameterInfo]:
+def point_entries(prefix: str, points: dict[str, DeclaredPose]) -> list[ParameterInfo]:
     """Entries ``prefix.name.x|y|z`` of named points (an instrument's pivots, sockets, microphones), in their order."""
-    return [entry for name, point in points.items() for entry in pose_entries(f"{prefix}.{name}", point, ("x", "y", "z"))]
+    return [entry for name, point in points.items() for entry in pose_entries(f"{prefix}.{name}", point)]
 
 
-def parameter_set(robot) -> ParameterSet:
-    """All parameters of a spec robot (the spec's ``robot`` section, read by its fields) in chain order: base, joints
-    (and links), tool, targets.
+def parameter_set(chain: DeclaredChain) -> ParameterSet:
+    """All parameters of a declared chain in chain order: base, joints (and links), tool, targets.
 
     A ``dh`` joint has Hayati's beta where the spec gives one or its axis is parallel to
     the next (kinematics/parallel_axes.py), with its d then held."""
-    entries = pose_entries("base", robot.base)
-    fields = JOINT_FIELDS[robot.convention]  # type: ignore[attr-defined]
-    parallel = {p.joint: p for p in parallel_axes(robot)}
-    for i, (name, joint) in enumerate(zip(robot.joint_names(), robot.joints), start=1):  # type: ignore[attr-defined]
-        if robot.convention == "six_parameter":
-            entries += pose_entries(f"L{i}", robot.links[i - 1], LINK_FIELDS)
-        joint_entries = [parameter_entry(f"{name}.{f}", field_kind(f, joint.type), getattr(joint, f)) for f in fields]
-        if robot.convention == "dh" and (joint.beta is not None or i in parallel):
-            if joint.beta is None:  # a parallel axis: Hayati's beta, free from 0
-                joint_entries.append(ParameterInfo(f"{name}.beta", "angle", 0.0, True, None, None))
+    entries = pose_entries("base", chain.base)
+    fields = JOINT_FIELDS[chain.convention]
+    parallel = {p.joint: p for p in parallel_axes(chain)}
+    for i, joint in enumerate(chain.joints, start=1):
+        if chain.convention == "six_parameter":
+            entries += pose_entries(f"L{i}", chain.links[i - 1])
+        joint_entries = [parameter_entry(f"{joint.name}.{f}", field_kind(f, joint.type), joint.parameters[f]) for f in fields]
+        beta = joint.parameters.get("beta")
+        if chain.convention == "dh" and (beta is not None or i in parallel):
+            if beta is None:  # a parallel axis: Hayati's beta, free from 0
+                joint_entries.append(ParameterInfo(f"{joint.name}.beta", "angle", 0.0, True, None, None))
             else:
-                joint_entries.append(parameter_entry(f"{name}.beta", "angle", joint.beta))
+                joint_entries.append(parameter_entry(f"{joint.name}.beta", "angle", beta))
         if i in parallel and parallel[i].d_held:
             d = fields.index("d")
             joint_entries[d] = replace(joint_entries[d], free=False, reason=parallel[i].reason)
         entries += joint_entries
-    if robot.convention == "six_parameter":
-        entries += pose_entries(f"L{robot.dof + 1}", robot.links[robot.dof], LINK_FIELDS)
-    entries += pose_entries("tool", robot.tool)
-    for name, target in robot.targets.items():
-        entries += [replace(e, role="target") for e in pose_entries(name, target)]
-    tolerance = robot.plausible_deviations
-    plausible = {"length": tolerance.length, "angle": tolerance.angle, "scale": tolerance.scale}
-    return ParameterSet(tuple(replace(e, tolerance=plausible.get(e.kind)) for e in entries))
+    if chain.convention == "six_parameter":
+        entries += pose_entries(f"L{chain.dof + 1}", chain.links[chain.dof])
+    entries += pose_entries("tool", chain.tool)
+    for name, target in chain.targets.items():
+        entries += [replace(e, role="target") for e in pose_entries(name, target.pose)]
+    return ParameterSet(tuple(replace(e, tolerance=chain.tolerance.get(e.kind)) for e in entries))

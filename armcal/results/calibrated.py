@@ -61,7 +61,7 @@ def _set(root: CommentedMap, path: list, value: float, held: bool = False, std: 
 
 def _drop_earlier_std(root: CommentedMap, spec: Spec, identified: set[str]) -> None:
     """Remove the ``std`` an earlier calibration wrote on the chain's parameters this run did not identify."""
-    for name in parameter_set(spec.robot).names:
+    for name in parameter_set(spec.robot.chain()).names:
         if name in identified:
             continue
         node = root

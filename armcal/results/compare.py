@@ -74,7 +74,7 @@ def _from_spec(loaded: LoadedSpec, label: str) -> Calibration:
     """A spec's chain parameters (values and ``std`` as written), dated by calibrated.yaml's header if it has one."""
     spec = loaded.spec
     rows = []
-    for entry in parameter_set(spec.robot).entries:
+    for entry in parameter_set(spec.robot.chain()).entries:
         node = spec
         for key in yaml_path(entry.name, spec):
             node = node[key] if isinstance(key, int) or isinstance(node, dict) else getattr(node, key, None)

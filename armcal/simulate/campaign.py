@@ -53,7 +53,7 @@ class CampaignSimulator:
     def __init__(self, spec: Spec, spec_dir: Path, validation: bool = True, calibration: bool = True):
         self.spec = spec
         self.settings = spec.simulate or fx.Simulate()
-        self.kinematics = compile_robot(spec.robot)
+        self.kinematics = compile_robot(spec.robot.chain())
         auto = [f for f in spec.device.noise_fields() if getattr(spec.device, f) == AUTO]
         if auto and self.settings.noise:
             raise UserError(

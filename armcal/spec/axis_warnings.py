@@ -12,5 +12,5 @@ def axis_warnings(loaded: LoadedSpec) -> list[Issue]:
     return located_issues(loaded, [
         (("robot", "targets", name), f"{distance:.1f} mm from joint {joint}'s axis: the point does not move when joint {joint} turns, "
                                      f"so its readings say nothing of that joint; place it off the axis (docs/devices/tracker.md)")
-        for name, joint, distance in targets_on_axes(loaded.spec)
+        for name, joint, distance in targets_on_axes(loaded.spec.robot.chain(), loaded.spec.device.sees_orientation())
     ])

@@ -12,6 +12,8 @@ from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo, WithJsonSchema, model_validator
 
+from armcal.kinematics.chain import DeclaredParameter, DeclaredPose
+from armcal.kinematics.params import POSE_FIELDS
 from armcal.support import units
 from armcal.support.errors import shown_value
 
@@ -84,6 +86,20 @@ class Parameter(SpecModel):
         if self.min is not None and self.value < self.min or self.max is not None and self.value > self.max:
             raise ValueError(f"value {self.value:g} lies outside its bounds [{self.min}, {self.max}]")
         return self
+
+    def declared(self) -> DeclaredParameter:
+        """The parameter as the kinematics and the instruments' models take it."""
+        return DeclaredParameter(self.value, self.vary, self.min, self.max)
+
+
+def declared_pose(model: SpecModel, fields: tuple[str, ...] = POSE_FIELDS) -> DeclaredPose:
+    """The given ones of a pose's (a point's, a link's) parameter ``fields``, in that order."""
+    return {f: getattr(model, f).declared() for f in fields if getattr(model, f, None) is not None}
+
+
+def declared_points(points: dict[str, SpecModel]) -> dict[str, DeclaredPose]:
+    """Named points (an instrument's pivots, sockets, microphones) as the instruments' models take them."""
+    return {name: declared_pose(point) for name, point in points.items()}
 
 
 def fixed(value: float) -> Parameter:

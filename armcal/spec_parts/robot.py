@@ -15,7 +15,9 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import Field, ValidationInfo, WithJsonSchema, field_validator
 
 from armcal.support import units
-from armcal.kinematics.params import joint_kind
+from armcal.kinematics.chain import DeclaredChain, DeclaredJoint, DeclaredTarget
+from armcal.kinematics.masses import LumpedMass
+from armcal.kinematics.params import LINK_FIELDS, joint_kind
 from armcal.spec_parts.base import (
     Angle,
     AngleParam,
@@ -25,6 +27,7 @@ from armcal.spec_parts.base import (
     ScaleParam,
     SpecModel,
     convert,
+    declared_pose,
     fixed,
     normalize_parameter,
     parameter_schema,
@@ -244,6 +247,24 @@ class RobotBase(SpecModel):
     def plausible_deviations(self) -> Tolerance:
         """``tolerance``, else its defaults."""
         return self.tolerance or Tolerance()
+
+    def chain(self) -> DeclaredChain:
+        """The chain as the kinematics take it (kinematics/chain.py): plain values in internal units."""
+        tolerance = self.plausible_deviations
+        return DeclaredChain(
+            name=self.name,
+            convention=self.convention,  # type: ignore[attr-defined]
+            joints=tuple(
+                DeclaredJoint(name, joint.type, {f: p.declared() for f, p in joint if isinstance(p, Parameter)}, joint.limits)
+                for name, joint in zip(self.joint_names(), self.joints)  # type: ignore[attr-defined]
+            ),
+            base=declared_pose(self.base),
+            tool=declared_pose(self.tool),
+            links=tuple(declared_pose(link, LINK_FIELDS) for link in getattr(self, "links", ())),
+            targets={name: DeclaredTarget(target.link, declared_pose(target)) for name, target in self.targets.items()},
+            masses=tuple(LumpedMass(m.link, m.mass, (m.x, m.y, m.z)) for m in self.masses),
+            tolerance={"length": tolerance.length, "angle": tolerance.angle, "scale": tolerance.scale},
+        )
 
     def link_names(self) -> list[str]:
         """The URDF names of the world, links 1..n and the tool: robot.urdf's, else world, link_1 .. link_n, tool0."""

@@ -70,7 +70,7 @@ def counts() -> tuple[list[dict], dict]:
     """armcal's count for every case: rank of the Jacobian at the nominal over the 54 (48) robot parameters."""
     loaded = load_spec(SPEC)
     spec = loaded.spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     data = device.prepare(read_measurements(SPEC.parent / spec.data.calibration, spec))
     problem = build_problem(kinematics, device, data)
     _, J = problem.evaluate(problem.parameters.nominal)  # noise-free: the Jacobian does not depend on the readings

@@ -214,7 +214,7 @@ def design_in_base_frame(robots: int = 500, sigma_e_deg: tuple[float, ...] = (0.
     (armcal montecarlo teaches the task frame by a best fit when the fit frees the base, for both controls.)"""
     loaded = load_spec(SPEC)
     spec = loaded.spec
-    kinematics = compile_robot(spec.robot)
+    kinematics = compile_robot(spec.robot.chain())
     control = TaskControl.plan(kinematics, grid_task(), kinematics.parameters.nominal)
     count = len(control.desired)
     extras = {"t": np.zeros(count), "temperature": np.full(count, 20.0), "dir": np.ones((count, kinematics.dof))}

@@ -16,7 +16,7 @@ from armcal.spec import load_spec
 
 def _setup(name):
     spec = load_spec(SPECS / f"{name}.yaml").spec
-    return spec, compile_robot(spec.robot)
+    return spec, compile_robot(spec.robot.chain())
 
 
 def _pose(x, y, z, rz, ry, rx):

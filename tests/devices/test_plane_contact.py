@@ -67,7 +67,7 @@ def _truth(folder: Path, data_set: str):
     (the ball's distance from its plane minus the radius: the simulated touch's noise), in numpy, not armcal's model."""
     spec = load_spec(folder / "spec.yaml").spec
     record = json.loads((folder / "truth.json").read_text())
-    robot = TrueRobot.from_record(compile_robot(spec.robot), record)
+    robot = TrueRobot.from_record(compile_robot(spec.robot.chain()), record)
     data = read_measurements(folder / getattr(spec.data, data_set), spec)
     P = _pose({f: record["device_parameters"][f"robot_base.{f}"] for f in ("x", "y", "z", "rx", "ry", "rz")})
     centres = (P @ robot.target_poses(spec.device.probe, data.q, data.extras))[:, :3, 3]
@@ -89,7 +89,7 @@ def _centres(spec, data) -> np.ndarray:
     device = device_model(spec)
     values = device.parameters.values(device.parameters.nominal)
     P = _pose({f: values[f"robot_base.{f}"] for f in ("x", "y", "z", "rx", "ry", "rz")})
-    return (P @ compile_robot(spec.robot).target_poses(spec.device.probe, data.q))[:, :3, 3]
+    return (P @ compile_robot(spec.robot.chain()).target_poses(spec.device.probe, data.q))[:, :3, 3]
 
 
 def test_simulate_run_certificate_on_a_known_cube(cube):
@@ -123,7 +123,7 @@ def _design_rank(spec_path: Path) -> int:
     spec = load_spec(spec_path).spec
     device = device_model(spec)
     data = device.prepare(simulate_campaign(spec, spec_path.parent).calibration)
-    problem = build_problem(compile_robot(spec.robot), device, data)
+    problem = build_problem(compile_robot(spec.robot.chain()), device, data)
     return design_identifiability(problem, problem.parameters.nominal).rank
 
 
@@ -212,7 +212,7 @@ def test_planned_touches_are_on_the_planes_within_the_cone(tmp_path):
     of the inward normal, every face drawn."""
     loaded = load_spec(_model_spec(tmp_path))
     spec = loaded.spec
-    device, kinematics = device_model(spec), compile_robot(spec.robot)
+    device, kinematics = device_model(spec), compile_robot(spec.robot.chain())
     Q, keys, _ = device.random_keyed_poses(spec, kinematics, 60, np.random.default_rng(4))
     reached = ~np.isnan(Q).any(axis=1)
     assert reached.mean() > 0.6 and {k[0] for k in keys} == set(spec.device.planes)

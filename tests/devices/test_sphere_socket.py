@@ -81,7 +81,7 @@ def reasoned_count(revolute: int, prismatic: int, sockets: int, distance: bool) 
 def test_random_seatings_put_the_nominal_ball_in_its_socket_within_the_cone(tmp_path):
     loaded = load_spec(_starter(tmp_path))
     spec = loaded.spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     Q, keys, _ = device.random_keyed_poses(spec, kinematics, 40, np.random.default_rng(5))
     reached = ~np.isnan(Q).any(axis=1)
     assert reached.sum() >= 36  # a UR5e reaches sockets on the table in front of it from almost any approach
@@ -106,8 +106,8 @@ def test_simulate_run_certificate_and_the_identified_robot_is_the_true_one(campa
     # configurations, each model's registered rigidly onto the true robot's (the sockets define the frame, so
     # only the arm's own geometry can be compared). Rigid only: the certified distance fixed the scale.
     spec = load_spec(spec_path).spec
-    nominal = compile_robot(spec.robot)
-    calibrated = compile_robot(load_spec(out / "calibrated.yaml").spec.robot)
+    nominal = compile_robot(spec.robot.chain())
+    calibrated = compile_robot(load_spec(out / "calibrated.yaml").spec.robot.chain())
     truth = TrueRobot.from_record(nominal, json.loads((spec_path.parent / "truth.json").read_text()))
     Q = np.random.default_rng(7).uniform(np.radians(-180), np.radians(180), (300, 6))
     true = truth.target_poses("ball", Q, {})[:, :3, 3]
@@ -179,7 +179,7 @@ def test_every_planned_or_random_design_keeps_the_certified_distance(tmp_path):
     from armcal.procedures import pose_selection as ps
 
     spec = load_spec(_starter(tmp_path)).spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     fixed = ps.fixed_readings(device, kinematics)
     assert fixed is not None and fixed.keys == ((),)  # an entry with no sample: the pseudo-observation alone
     fresh = ps.candidate_poses(spec, kinematics, device, 80, 3)

@@ -44,7 +44,7 @@ def _spec(tmp_path, base, simulate_yaml: str):
 
 def _data(loaded, tmp_path):
     spec = loaded.spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     campaign = simulate_campaign(spec, tmp_path)
     validation = device.prepare(campaign.validation) if campaign.validation is not None else None
     return kinematics, device, device.prepare(campaign.calibration), validation

@@ -249,7 +249,7 @@ def test_compensate_with_the_learned_model_reaches_the_bent_robots_targets(bent,
     far[:, 1], far[:, 2] = np.deg2rad(-215.0), np.deg2rad(-30.0)  # q2 and q3 well beyond the calibration's (-120..0, 90..210 deg)
     Q = np.vstack([inside, far])
     goals, registration = _true_reflector(geometry, Q), registration_of(learned)
-    axes = compile_robot(learned.spec.robot).tool_poses(Q)[:, :3, :3]  # reachable tool axes
+    axes = compile_robot(learned.spec.robot.chain()).tool_poses(Q)[:, :3, :3]  # reachable tool axes
     with_model, rows, note = _commands(learned, registration, goals, axes, Q)
     without, plain, _ = _commands(physical, registration, goals, axes, Q)
     miss = lambda commands: np.linalg.norm(_true_reflector(geometry, commands) - goals, axis=1)  # noqa: E731
@@ -300,7 +300,7 @@ def calibrated(folder, spec):
     raw = read_measurements(folder / "calibration.csv", loaded.spec)
     device = fitted_device(loaded.spec, raw)
     validation = device.prepare(read_measurements(folder / "validation.csv", loaded.spec))
-    return identify_and_diagnose(loaded.spec, compile_robot(loaded.spec.robot), device, raw, device.prepare(raw), validation)
+    return identify_and_diagnose(loaded.spec, compile_robot(loaded.spec.robot.chain()), device, raw, device.prepare(raw), validation)
 
 
 def test_a_model_fitted_far_above_its_noise_is_one_calibrated_yaml_holds():

@@ -58,7 +58,7 @@ def test_the_moments_form_is_the_compliance_times_the_torque_of_the_masses(tmp_p
     """armcal's deflection with the products of a mass layout equals C tau_j of the masses themselves (numpy), as
     does the declared-masses form with the same masses; the default 5 kg masses give another deflection."""
     spec = _puma(tmp_path).spec
-    kinematics = compile_robot(spec.robot)
+    kinematics = compile_robot(spec.robot.chain())
     q = np.random.default_rng(joint).uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (100, 6))
     C = 1e-5  # rad / (N m)
     expected = C * gravity_torque(frames(NOMINAL, q), joint, PUMA_LAYOUT)
@@ -107,7 +107,7 @@ def test_the_base_set_keeps_as_many_products_as_the_torque_has_gravity_parameter
     info["spec"].write_text(text)
     loaded = load_spec(info["spec"])
     spec = loaded.spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     data = device.prepare(read_measurements(info["spec"].parent / spec.data.calibration, spec))
     problem, start = calibration_problem(spec, kinematics, device, data)
     base = design_identifiability(problem, start)
@@ -161,7 +161,7 @@ def test_the_simulator_refuses_a_bending_it_cannot_simulate(tmp_path):
 
 def _diagnose(spec_path, settings=Diagnose()):
     spec = load_spec(spec_path).spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     calibration = device.prepare(read_measurements(spec_path.parent / spec.data.calibration, spec))
     validation = device.prepare(read_measurements(spec_path.parent / spec.data.validation, spec))
     return kinematics, run_diagnosis(kinematics, device, calibration, validation, [], Fit(), settings)
@@ -211,7 +211,7 @@ def test_bending_is_the_weight_moment_tilting_the_links_beyond_the_joint(tmp_pat
     """armcal's tracker reading with joint 5's bending (products of the layout, bending compliance K) equals numpy's
     exact rotation of the links beyond joint 5 about o_4 by K times the weight moment square to the axis."""
     loaded = _puma(tmp_path)
-    kinematics, device = compile_robot(loaded.spec.robot), device_model(loaded.spec)
+    kinematics, device = compile_robot(loaded.spec.robot.chain()), device_model(loaded.spec)
     q = np.random.default_rng(3).uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (100, 6))
     K = 2e-4  # rad / (N m): a 2.5 kg payload 0.13 m off tilts the flange by about a milliradian
     effect = with_products(vocabulary()["joint_bending"], 5, moment_terms(5, 6), regrouped_products(5, PUMA_LAYOUT, K))
@@ -250,6 +250,6 @@ def test_a_simulated_moments_compliance_is_recorded_in_truth_json_and_read_back(
     loaded = _puma(tmp_path, "simulate:\n  effects:\n    - {type: joint_compliance, joint: 5, form: moments, mx6: '0.01 deg'}\n")
     write_simulation(loaded, tmp_path / "sim")
     record = json.loads((tmp_path / "sim" / "truth.json").read_text())
-    [effect] = TrueRobot.from_record(compile_robot(loaded.spec.robot), record).effects.effects
+    [effect] = TrueRobot.from_record(compile_robot(loaded.spec.robot.chain()), record).effects.effects
     assert effect.id == "joint_compliance.j5" and effect.form == "moments"
     assert set(effect.terms) == set(moment_terms(5, 6)) and effect.values["mx6"] == pytest.approx(0.01 * DEG)

@@ -46,7 +46,7 @@ def test_the_coupling_is_q3_plus_c_q2_in_a_numpy_dh_chain(tmp_path):
     """armcal's prediction (the fitted model) and its simulator's truth, each with dq3 = c q2, equal a numpy DH
     chain at q3 + c q2; the same numpy chain at q3 alone is millimetres off."""
     spec = _puma(tmp_path).spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     q = np.random.default_rng(1).uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (50, 6))
     coupled = q.copy()
     coupled[:, 2] += C * q[:, 1]
@@ -101,7 +101,7 @@ def test_couplings_are_proposed_between_neighbours_and_within_the_wrist():
 def _calibrate(spec_path):
     """The stages of `armcal run` up to the diagnosis' final fit."""
     spec = load_spec(spec_path).spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     raw = read_measurements(spec_path.parent / spec.data.calibration, spec)
     validation = device.prepare(read_measurements(spec_path.parent / spec.data.validation, spec))
     return identify_and_diagnose(spec, kinematics, device, raw, device.prepare(raw), validation)
@@ -143,6 +143,6 @@ def test_a_simulated_coupling_is_recorded_in_truth_json_and_read_back(tmp_path):
     loaded = _puma(tmp_path, "simulate:\n  effects:\n    - {type: joint_coupling, joint: 3, from: 2, coefficient: 0.0002}\n")
     write_simulation(loaded, tmp_path / "sim")
     record = json.loads((tmp_path / "sim" / "truth.json").read_text())
-    robot = TrueRobot.from_record(compile_robot(loaded.spec.robot), record)
+    robot = TrueRobot.from_record(compile_robot(loaded.spec.robot.chain()), record)
     [effect] = robot.effects.effects
     assert (effect.id, effect.values) == ("joint_coupling.j3.from2", {"coefficient": 0.0002})

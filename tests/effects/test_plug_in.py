@@ -75,7 +75,7 @@ def test_a_registered_effect_is_simulated_fitted_and_compensated(tmp_path, squar
     assert fitted.free and abs(fitted.value - TRUE_C) < 3 * fitted.std
 
     calibrated = load_spec(tmp_path / "out" / "calibrated.yaml")
-    kinematics = compile_robot(calibrated.spec.robot)
+    kinematics = compile_robot(calibrated.spec.robot.chain())
     seeds = np.deg2rad([[10, -60, 80, 20, 30, 40], [-30, -100, 120, -40, 50, 10], [45, -20, 30, 60, -45, -90]])
     rows = ["name,x,y,z,rx,ry,rz,q1,q2,q3,q4,q5,q6"]
     for i, q in enumerate(seeds):

@@ -100,7 +100,7 @@ def test_files_of_a_study(study):
 def test_target_radius_sweep_moves_every_swept_target_to_r():
     loaded = load_spec(SONIC)
     spec = variant(loaded.spec, "target_radius", parse_sweep("target_radius=30,50", loaded.spec).values[1])
-    model = compile_robot(spec.robot)
+    model = compile_robot(spec.robot.chain())
     q = np.asarray(spec.procedure.signature)
     frames = model.link_frames(q)
     for joint, name in enumerate(spec.procedure.targets, start=1):

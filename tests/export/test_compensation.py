@@ -70,7 +70,7 @@ def test_compensated_commands_reach_the_targets_on_the_true_robot(tmp_path):
     goals = true_reflector(Q)  # where the true robot's reflector can be: the targets, tracker frame
     calibrated = _with_tool_at_smr(tmp_path / "out" / "calibrated.yaml", tmp_path / "calibrated_tool.yaml")
     registration = registration_of(calibrated)
-    axes = compile_robot(calibrated.spec.robot).tool_poses(Q)[:, :3, :3]  # reachable tool axes
+    axes = compile_robot(calibrated.spec.robot.chain()).tool_poses(Q)[:, :3, :3]  # reachable tool axes
     miss = lambda commands: float(np.sqrt(np.mean((true_reflector(commands) - goals) ** 2)))  # noqa: E731  mm per coordinate
 
     compensated = miss(_commands(calibrated, registration, goals, axes)[0])
@@ -80,7 +80,7 @@ def test_compensated_commands_reach_the_targets_on_the_true_robot(tmp_path):
         rows = list(csv.DictReader(stream))
     measured_Q = np.deg2rad([[float(r[f"q{j}"]) for j in range(1, 7)] for r in rows])
     measured = np.array([[float(r[c]) for c in "xyz"] for r in rows])
-    nominal_chain = compile_robot(nominal_spec.spec.robot)
+    nominal_chain = compile_robot(nominal_spec.spec.robot.chain())
     nominal_registration = kabsch(nominal_chain.tool_poses(measured_Q)[:, :3, 3], measured)
     nominal = miss(_commands(nominal_spec, nominal_registration, goals, axes)[0])
 

@@ -85,7 +85,7 @@ def _spec(tmp_path, name, changes=()):
 def test_the_urdf_moves_as_armcals_chain(tmp_path, name, changes):
     path = _spec(tmp_path, name, changes)
     exported = export(path, "urdf")
-    kinematics = compile_robot(load_spec(path).spec.robot)
+    kinematics = compile_robot(load_spec(path).spec.robot.chain())
     rng = np.random.default_rng(4)
     for q in rng.uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (25, kinematics.dof)):
         poses = _urdf_poses(exported.text, q)
@@ -101,7 +101,7 @@ def test_yourdfpy_moves_the_exported_urdf_as_armcals_chain(tmp_path, name, chang
     path, out = _spec(tmp_path, name, changes), tmp_path / "robot.urdf"
     result = armcal_cli("export", path, "--format", "urdf", "--out", out)
     assert result.returncode == 0, result.stderr
-    kinematics = compile_robot(load_spec(path).spec.robot)
+    kinematics = compile_robot(load_spec(path).spec.robot.chain())
     model = urdf_oracle.load(out)
     assert model.actuated_joint_names == list(kinematics.joint_names)
     Q = random_configurations(kinematics, 1000, seed=16)
@@ -164,7 +164,7 @@ def test_compensated_commands_recover_the_commands_that_made_the_targets(tmp_pat
     text = (SPECS / "ur10.yaml").read_text().replace("armcal: 1\n", f"armcal: 1\n{HARMONIC}", 1)  # mm and deg
     spec_path = tmp_path / "calibrated.yaml"
     spec_path.write_text(text)
-    kinematics = compile_robot(load_spec(spec_path).spec.robot)
+    kinematics = compile_robot(load_spec(spec_path).spec.robot.chain())
     rng = np.random.default_rng(11)
     low, high = kinematics.limits[:, 0], kinematics.limits[:, 1]
     command = rng.uniform(low + 0.3 * (high - low), high - 0.3 * (high - low), (20, kinematics.dof))

@@ -83,7 +83,7 @@ def test_the_driver_builds_armcals_calibrated_arm(tmp_path):
     path = _spec(tmp_path, CALIBRATED)
     exported = export(path, "ur-calibration")
     kinematics = YAML(typ="safe").load(exported.text)["kinematics"]
-    chain = compile_robot(load_spec(path).spec.robot)
+    chain = compile_robot(load_spec(path).spec.robot.chain())
     Q = np.random.default_rng(16).uniform(-np.pi, np.pi, (1000, 6))
     armcal_tool = chain.tool_poses(Q)
     worst = max(np.max(np.abs(_tool0_in_base_link(kinematics, q) - T)) for q, T in zip(Q, armcal_tool))

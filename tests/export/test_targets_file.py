@@ -22,7 +22,7 @@ Q = [10, -40, 150, 5, 30, 20]  # deg, inside the PUMA's limits
 @pytest.fixture(scope="module")
 def puma():
     loaded = load_spec(SPECS / "puma560_dh.yaml")  # cm and deg
-    x, y, z, rz, ry, rx = pose_from_matrix(compile_robot(loaded.spec.robot).tool_poses(np.radians([Q]))[0])
+    x, y, z, rz, ry, rx = pose_from_matrix(compile_robot(loaded.spec.robot.chain()).tool_poses(np.radians([Q]))[0])
     return loaded, [f"{v:.12g}" for v in (x / 10, y / 10, z / 10, *np.degrees([rx, ry, rz]))]
 
 

@@ -46,7 +46,7 @@ def calibrate(spec_path):
     """The stages of `armcal run` up to the diagnosis' final fit, and the calibrated.yaml it writes."""
     loaded = load_spec(spec_path)
     spec = loaded.spec
-    kinematics = compile_robot(spec.robot)
+    kinematics = compile_robot(spec.robot.chain())
     device = device_model(spec, spec.fit.sonic_readings)
     raw = read_measurements(spec_path.parent / spec.data.calibration, spec)
     calibration = device.prepare(raw)

@@ -15,7 +15,7 @@ from armcal.spec import load_spec
 @pytest.fixture(scope="module")
 def sweeps():
     spec = load_spec(SPECS / "puma560_dh.yaml").spec
-    kinematics = compile_robot(spec.robot)
+    kinematics = compile_robot(spec.robot.chain())
     planned = plan(spec.procedure, kinematics, device_model(spec), spec, SPECS)
     out = []
     for i, target in enumerate(spec.procedure.targets):

@@ -56,14 +56,14 @@ def problem_of(spec_path):
     """The calibration problem `armcal run` fits first, and its start."""
     spec = load_spec(spec_path).spec
     raw = read_measurements(spec_path.parent / spec.data.calibration, spec)
-    kinematics, device = compile_robot(spec.robot), fitted_device(spec, raw)
+    kinematics, device = compile_robot(spec.robot.chain()), fitted_device(spec, raw)
     return calibration_problem(spec, kinematics, device, device.prepare(raw))
 
 
 def functions_of(spec_path):
     """Each key's value-and-Jacobian function of a ball-bar or tracker spec (no declared effects)."""
     spec = load_spec(spec_path).spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     data = device.prepare(read_measurements(spec_path.parent / spec.data.calibration, spec))
     return [_value_and_jacobian(kinematics, device, EffectSet(), key) for key in sorted(data.groups(), key=str)]
 

@@ -167,7 +167,7 @@ def test_the_tracker_start_keeps_the_base_components_a_spec_holds(tmp_path):
     text = (folder / "spec.yaml").read_text().replace("ry: 0.0, rx: 0.0}", "ry: {value: 0.01, vary: false}, rx: {value: 0.0, vary: false}}")
     (tmp_path / "spec.yaml").write_text(text)
     spec = load_spec(tmp_path / "spec.yaml").spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     data = read_measurements(folder / "calibration.csv", spec)
     problem = build_problem(kinematics, device, data)
     theta = starting_values(problem, kinematics, device, data)

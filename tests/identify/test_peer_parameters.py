@@ -123,7 +123,7 @@ def calibrate(folder, target: tuple[float, float, float], joint_extra: dict[str,
         (folder / name).write_text("\n".join(lines) + "\n")
     (folder / "spec.yaml").write_text(_spec(target, joint_extra or {}))
     spec = load_spec(folder / "spec.yaml").spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     data = device.prepare(read_measurements(folder / "calibration.csv", spec))
     problem = build_problem(kinematics, device, data)
     result = fit(problem, spec.fit, starting_values(problem, kinematics, device, data))

@@ -67,7 +67,7 @@ def _calibrate(tmp_path, spec_path, changes, data):
     device = device_model(spec)
     from armcal.kinematics.compiler import compile_robot
 
-    return identify_and_diagnose(spec, compile_robot(spec.robot), device, data, device.prepare(data), None)
+    return identify_and_diagnose(spec, compile_robot(spec.robot.chain()), device, data, device.prepare(data), None)
 
 
 TRACKER_TRUTH = {"tmac": (0.05, 0.01 * DEG), "side": (0.2, 0.004 * DEG)}  # mm, rad: position and orientation sigma
@@ -189,7 +189,7 @@ def test_reweighting_equals_a_problem_built_with_the_new_sigmas(tmp_path, tracke
     from armcal.kinematics.compiler import compile_robot
 
     spec = _load(tmp_path, _spec_text(SPECS / "ur10.yaml", [*UR10_TWO_TARGETS, (DECLARED[0], "  noise: auto\n  orientation_noise: auto\n")]))
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     scale = {"position": 0.07, "orientation": 3e-4}
     built = build_problem(kinematics, device.with_noise_scale(scale), tracker_campaign)
     unit = build_problem(kinematics, device.with_noise_scale({"position": 1.0, "orientation": 1.0}), tracker_campaign)
@@ -285,7 +285,7 @@ def test_sonic_sigma_per_microphone(tmp_path):
     text = _spec_text(spec_path, [NO_DIAGNOSIS, more, ("  noise: {a: 9.6432e-5, b: 0.003}", "  noise: auto\n  noise_groups: [microphone]")])
     spec = _load(tmp_path, text)
     device = device_model(spec)
-    calibrated = identify_and_diagnose(spec, compile_robot(spec.robot), device, data, data, None)  # ranges as the model predicts them
+    calibrated = identify_and_diagnose(spec, compile_robot(spec.robot.chain()), device, data, data, None)  # ranges as the model predicts them
     found = {g.group: g for g in calibrated.noise.groups}
     assert set(found) == {f"range, microphone {m}" for m in "ABCD"}
     for channel, true in truth_sigma.items():

@@ -122,7 +122,7 @@ def test_import_simulate_run_export_keeps_the_chain_and_its_names(tmp_path, case
     assert said == reason if reason else said.startswith("  its serial, target, device and procedure are stand-ins"), imported.stdout
     robot = load_spec(spec).spec.robot
     assert robot.convention == convention and robot.link_names() == [base, *links, tip]
-    nominal = compile_robot(robot)
+    nominal = compile_robot(robot.chain())
     Q = _configurations(nominal.limits, 200, seed=31)
     truth = urdf_oracle.poses(urdf_oracle.load(source), urdf_oracle.joint_values(Q, nominal.joint_types), [*links, tip], base)
     position, rotation = urdf_oracle.differences(nominal.tool_poses(Q), truth[tip])
@@ -142,7 +142,7 @@ def test_import_simulate_run_export_keeps_the_chain_and_its_names(tmp_path, case
     spec.write_text(spec.read_text().replace("  count: 100", "  count: 40") + CAMPAIGN)
     assert armcal_cli("simulate", spec).returncode == 0
     run(spec, tmp_path / "out", pdf=False)
-    calibrated = compile_robot(load_spec(tmp_path / "out" / "calibrated.yaml").spec.robot)
+    calibrated = compile_robot(load_spec(tmp_path / "out" / "calibrated.yaml").spec.robot.chain())
     for fmt in ("urdf", "dh-table"):
         done = armcal_cli("export", tmp_path / "out", "--format", fmt, "--out", tmp_path / f"calibrated.{fmt}")
         assert done.returncode == 0, done.stderr
@@ -165,7 +165,7 @@ def test_a_six_parameter_import_exports_to_a_dh_table(tmp_path):
     assert armcal_cli("export", spec, "--format", "dh-table", "--out", tmp_path / "six.txt").returncode == 0
     table = (tmp_path / "six.txt").read_text()
     assert "the six_parameter chain converted to DH parameters" in table.splitlines()[0]
-    limits = compile_robot(load_spec(spec).spec.robot).limits
+    limits = compile_robot(load_spec(spec).spec.robot.chain()).limits
     Q = _configurations(limits, 200, seed=32)
     truth = urdf_oracle.poses(urdf_oracle.load(source), Q, ["tool0"], "base_link")["tool0"]
     position, rotation = urdf_oracle.differences(_table_poses(table, Q), truth)
@@ -183,7 +183,7 @@ def test_a_chain_beyond_dh_values_falls_back_to_six_parameter(tmp_path):
     done = armcal_cli("import-urdf", tmp_path / "far.urdf", "--base", "a", "--tip", "c", "--out", tmp_path / "far.yaml")
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines()[1].startswith("  six_parameter, not dh: the chain makes no valid spec: robot.joints[0].d: "), done.stdout
-    model = compile_robot(load_spec(tmp_path / "far.yaml").spec.robot)
+    model = compile_robot(load_spec(tmp_path / "far.yaml").spec.robot.chain())
     Q = _configurations(model.limits, 50, seed=33)
     truth = urdf_oracle.poses(urdf_oracle.load(tmp_path / "far.urdf"), Q, ["c"], "a")["c"]
     position, rotation = urdf_oracle.differences(model.tool_poses(Q), truth)

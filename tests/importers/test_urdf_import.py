@@ -19,14 +19,14 @@ def _imported(tmp_path, urdf, base, tip):
     out = tmp_path / "imported.yaml"
     result = armcal_cli("import-urdf", urdf, "--base", base, "--tip", tip, "--out", out)
     assert result.returncode == 0, result.stderr
-    return compile_robot(load_spec(out).spec.robot)
+    return compile_robot(load_spec(out).spec.robot.chain())
 
 
 @pytest.mark.parametrize("name, changes", URDF_CASES, ids=URDF_IDS)
 def test_importing_armcals_urdf_gives_the_chain_back(tmp_path, name, changes):
     path, urdf = _spec(tmp_path, name, changes), tmp_path / "robot.urdf"
     assert armcal_cli("export", path, "--format", "urdf", "--out", urdf).returncode == 0
-    original = compile_robot(load_spec(path).spec.robot)
+    original = compile_robot(load_spec(path).spec.robot.chain())
     imported = _imported(tmp_path, urdf, "world", "tool0")
     assert imported.joint_names == original.joint_names and imported.joint_types == original.joint_types
     np.testing.assert_allclose(imported.limits, original.limits, rtol=1e-11)
@@ -164,7 +164,7 @@ def test_what_import_urdf_writes_validates_or_nothing_is_written(tmp_path):
     done = armcal_cli("import-urdf", edge, "--base", "l0", "--tip", "l3", "--out", out)
     assert done.returncode == 0, done.stderr
     robot = load_spec(out).spec.robot
-    chain = compile_robot(robot)
+    chain = compile_robot(robot.chain())
     np.testing.assert_allclose(chain.limits[0], [-1e6, 1e6])
     np.testing.assert_allclose(chain.tool_poses(np.zeros((1, 3)))[0][:3, 3], [2.7e9 / 1000 * 1000, 0, 0], rtol=1e-12)
     assert armcal_cli("validate", out).returncode == 0
@@ -197,7 +197,7 @@ def test_the_stand_in_target_is_off_the_last_joints_axis(tmp_path, urdf, base, t
     out = tmp_path / "imported.yaml"
     assert armcal_cli("import-urdf", urdf, "--base", base, "--tip", tip, "--out", out).returncode == 0
     robot = load_spec(out).spec.robot
-    chain = compile_robot(robot)
+    chain = compile_robot(robot.chain())
     Q = random_configurations(chain, 5, seed=3)
     turned = Q.copy()
     turned[:, -1] += np.pi / 2

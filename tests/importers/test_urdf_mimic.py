@@ -104,7 +104,7 @@ def _check(tmp_path, urdf, base, tip, names, convention, count, links=()) -> tup
     done = armcal_cli("import-urdf", urdf, "--base", base, "--tip", tip, "--out", out, "--convention", convention)
     assert done.returncode == 0, done.stderr
     assert armcal_cli("validate", out).returncode == 0
-    robot = compile_robot(load_spec(out).spec.robot)
+    robot = compile_robot(load_spec(out).spec.robot.chain())
     model = urdf_oracle.load(urdf)
     assert list(robot.joint_names) == names
     for name, kind, (low, high) in zip(names, robot.joint_types, robot.limits):

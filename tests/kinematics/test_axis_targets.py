@@ -15,6 +15,12 @@ A2 = 43.18  # cm, Table 6-2
 SPARKERS = "  targets:\n    sparker1:"
 
 
+def on_axes(path) -> list[tuple[str, int, float]]:
+    """``targets_on_axes`` of the spec at ``path``."""
+    spec = load_spec(path).spec
+    return targets_on_axes(spec.robot.chain(), spec.device.sees_orientation())
+
+
 def _puma_with(tmp_path, target: str):
     """specs/puma560_dh.yaml (cm) with one more target, ``name: {...}``."""
     text = (SPECS / "puma560_dh.yaml").read_text()
@@ -33,7 +39,7 @@ def _puma_with(tmp_path, target: str):
 ])
 def test_a_target_on_its_joints_axis_is_named(tmp_path, target, expected):
     path = _puma_with(tmp_path, target)
-    assert [(name, joint) for name, joint, _ in targets_on_axes(load_spec(path).spec)] == expected
+    assert [(name, joint) for name, joint, _ in on_axes(path)] == expected
     done = armcal_cli("validate", path)
     assert done.returncode == 0, done.stderr
     warned = [line for line in done.stderr.splitlines() if "axis" in line]
@@ -48,9 +54,9 @@ def test_a_frame_whose_orientation_is_read_sees_the_joint_turn(tmp_path):
     """specs/ur10.yaml's T-Mac lies on joint 6's axis (x = y = 0, a6 = 0, alpha6 = 0) and the tracker reads its orientation."""
     text = (SPECS / "ur10.yaml").read_text()
     assert "tmac: {link: 6, x: 0.0, y: 0.0," in text and "  orientation: true\n" in text and "  orientation_noise: 0.002\n" in text
-    assert targets_on_axes(load_spec(SPECS / "ur10.yaml").spec) == []
+    assert on_axes(SPECS / "ur10.yaml") == []
     (tmp_path / "positions.yaml").write_text(text.replace("  orientation: true\n", "").replace("  orientation_noise: 0.002\n", ""))
-    assert [(name, joint) for name, joint, _ in targets_on_axes(load_spec(tmp_path / "positions.yaml").spec)] == [("tmac", 6)]
+    assert [(name, joint) for name, joint, _ in on_axes(tmp_path / "positions.yaml")] == [("tmac", 6)]
 
 
 def test_no_target_armcal_new_writes_sits_on_an_axis(tmp_path):
@@ -60,4 +66,4 @@ def test_no_target_armcal_new_writes_sits_on_an_axis(tmp_path):
         for device in INSTRUMENTS:
             path = tmp_path / f"{name}-{device}.yaml"
             path.write_text(new_spec_text(library_robot(name), device, path.stem))
-            assert targets_on_axes(load_spec(path).spec) == [], (name, device)
+            assert on_axes(path) == [], (name, device)

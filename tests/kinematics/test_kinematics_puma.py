@@ -78,6 +78,6 @@ def test_prismatic_joint_translates_along_its_axis():
             ],
         }
     )
-    model = compile_robot(robot)
+    model = compile_robot(robot.chain())
     T = model.tool_poses(np.array([[0.0, 0.0], [250.0, 0.0]]))
     assert np.allclose(T[1][:3, 3] - T[0][:3, 3], [0.0, 0.0, 250.0], atol=1e-12)

@@ -33,7 +33,7 @@ def _robot(convention, rows, limits, base=None, tool=None):
             from armcal.kinematics.transforms import pose_from_matrix
 
             data[key] = dict(zip(("x", "y", "z", "rz", "ry", "rx"), pose_from_matrix(T)))
-    return compile_robot(cls.model_validate(data, context=MM_RAD))
+    return compile_robot(cls.model_validate(data, context=MM_RAD).chain())
 
 
 def test_dh_smodel_dh_round_trip_is_exact():
@@ -103,7 +103,7 @@ def _tilted_puma(tilt_about_y: float, tilt_about_x: float):
     joints = [{"limits": [-math.pi, math.pi], **row.__dict__} for row in TABLE_6_2]
     joints[1] = {**joints[1], "alpha": tilt_about_x, "beta": tilt_about_y}
     data = {"name": "tilted", "serial": "t", "convention": "mdh", "joints": joints}
-    return compile_robot(MDHRobot.model_validate(data, context=MM_RAD))
+    return compile_robot(MDHRobot.model_validate(data, context=MM_RAD).chain())
 
 
 def test_near_parallel_axes_give_table_6_3_behaviour():
@@ -116,7 +116,7 @@ def test_near_parallel_axes_give_table_6_3_behaviour():
     assert d2 * d3 < 0
     assert abs(d2 + d3) < 0.05 * abs(d2)
     assert abs(result.rows[1].a) < 0.5 * 431.8  # the common normal moved: a2 collapses as in Table 6-3
-    dh = compile_robot(DHRobot.model_validate(result.robot_dict("x", "y", model.limits), context=MM_RAD))
+    dh = compile_robot(DHRobot.model_validate(result.robot_dict("x", "y", model.limits), context=MM_RAD).chain())
     Q = random_configurations(model, 500, seed=5)
     assert np.abs(dh.tool_poses(Q)[:, :3, 3] - model.tool_poses(Q)[:, :3, 3]).max() < 1e-6
     assert np.abs(dh.tool_poses(Q)[:, :3, :3] - model.tool_poses(Q)[:, :3, :3]).max() < 1e-9
@@ -124,14 +124,14 @@ def test_near_parallel_axes_give_table_6_3_behaviour():
 
 def test_goswami_table_ii_is_the_same_puma_as_stone_table_6_2():
     """Goswami's design values (Table II, ZYX Euler links) extract to Stone's DH lengths (Table 6-2)."""
-    model = compile_robot(load_spec(SPECS / "goswami_puma560.yaml").spec.robot)
+    model = compile_robot(load_spec(SPECS / "goswami_puma560.yaml").spec.robot.chain())
     result = pseudo_dh(model, np.radians([155.0, -100.0, 178.0, 10.0, 20.0, 30.0]))  # any signature
     assert abs(result.rows[1].a) == pytest.approx(431.8, abs=1e-9)
     assert abs(result.rows[1].d + result.rows[2].d) == pytest.approx(149.09, abs=1e-9)
     assert abs(result.rows[2].a) == pytest.approx(20.32, abs=1e-9)
     assert abs(result.rows[3].d) == pytest.approx(433.07, abs=1e-9)
     assert [round(abs(r.alpha) / DEG, 9) for r in result.rows] == [90, 0, 90, 90, 90, 0]
-    dh = compile_robot(DHRobot.model_validate(result.robot_dict("x", "y", model.limits), context=MM_RAD))
+    dh = compile_robot(DHRobot.model_validate(result.robot_dict("x", "y", model.limits), context=MM_RAD).chain())
     Q = random_configurations(model, 300, seed=6)
     assert np.abs(dh.tool_poses(Q) - model.tool_poses(Q)).max() < 1e-9
 

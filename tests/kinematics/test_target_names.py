@@ -17,7 +17,7 @@ def test_any_target_name_compiles_validates_and_moves_as_before(tmp_path, name):
     `validate` and `fk` exit 0 without a traceback."""
     spec = tmp_path / "spec.yaml"
     spec.write_text(SPEC.read_text().replace("sparker1", name if name.isascii() and " " not in name and "=" not in name else f'"{name}"'))
-    before, after = compile_robot(load_spec(SPEC).spec.robot), compile_robot(load_spec(spec).spec.robot)
+    before, after = compile_robot(load_spec(SPEC).spec.robot.chain()), compile_robot(load_spec(spec).spec.robot.chain())
     q = np.random.default_rng(1).uniform(-1.0, 1.0, (5, 6))
     np.testing.assert_array_equal(after.target_poses(name, q), before.target_poses("sparker1", q))
     for command in (("validate", spec), ("fk", spec, "--target", name, "--q", "0,0,0,0,0,0")):

@@ -96,7 +96,7 @@ def _check_grown(chain, described, frame: str | None, stands) -> None:
 
 def _tasks_are_placed(path, described) -> dict:
     spec = load_spec(path).spec
-    chain = compile_robot(spec.robot)
+    chain = compile_robot(spec.robot.chain())
     frame, p = measured_point(spec), chain.parameters.nominal
     found = {}
     for task in ("grid_task", "iso9283"):
@@ -132,7 +132,7 @@ def test_a_robot_reaching_no_task_says_why_with_numbers(tmp_path):
     tiny = tmp_path / "spec.yaml"  # a quill of 1 mm: no task stands in its workspace
     tiny.write_text(EPSON.replace("limits: [0, 200]", "limits: [0, 1]"))
     spec = load_spec(tiny).spec
-    chain = compile_robot(spec.robot)
+    chain = compile_robot(spec.robot.chain())
     assert placed("grid_task", chain, chain.parameters.nominal, "reflector") is None
     why = unplaced("grid_task", chain, chain.parameters.nominal, "reflector")
     assert "horizontal reach of 710 mm" in why and "scaled by" in why and "27 centres" in why, why
@@ -159,7 +159,7 @@ def test_any_robot_gets_its_tasks_and_the_commands_complete(tmp_path, robot):
     path, described = _spec(tmp_path, robot)
     spec = load_spec(path).spec
     if described is not None and _flat(described):
-        chain = compile_robot(spec.robot)
+        chain = compile_robot(spec.robot.chain())
         assert "lie in a plane" in unplaced("grid_task", chain, chain.parameters.nominal, measured_point(spec))
         flat_or_unplanned = "the positions it reaches lie in a plane" + ("|plans no pose the instrument can read" if spec.device.type == "ballbar" else "")
         with pytest.raises(UserError, match=flat_or_unplanned):  # a ball-bar's shells are planned before the grid

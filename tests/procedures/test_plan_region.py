@@ -42,7 +42,7 @@ def _independent_target(Q: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("oriented", [False, True])
 def test_region_poses_put_the_measured_point_in_the_box(puma, oriented):
-    kinematics, device = compile_robot(puma.spec.robot), device_model(puma.spec)
+    kinematics, device = compile_robot(puma.spec.robot.chain()), device_model(puma.spec)
     region = working_region(puma.spec, kinematics, "iso_cube", oriented)
     side = region.high - region.low
     assert region.frame == "smr" and np.allclose(side, side[0]) and side[0] > 100.0  # a cube, of a useful size
@@ -61,7 +61,7 @@ def test_the_region_weight_plans_for_the_region(puma):
     """With W over the region's poses (task orientation), the I-plan's linearised held-out error there is below the
     region-blind D-plan's and every random design's of as many poses; random poses in the region at any
     orientation are identifiable designs, the study's baseline (b)."""
-    kinematics = compile_robot(puma.spec.robot)
+    kinematics = compile_robot(puma.spec.robot.chain())
     region = working_region(puma.spec, kinematics, "iso_cube", oriented=True)
     study = PlanStudy(puma.spec, puma.path.parent, 400, seed=2, criterion="I", region=region, region_pool=300)
     whole = study.information.prediction_weight()

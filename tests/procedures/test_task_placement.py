@@ -75,7 +75,7 @@ def test_tasks_are_placed_and_evaluated_without_extra_keys(tmp_path, make, robot
 @pytest.mark.parametrize("robot", ["kuka_kr6_r900_sixx", "abb_irb120", "ur5e"])
 def test_placed_frames_are_reached_and_the_cube_is_the_largest(tmp_path, robot):
     spec = load_spec(_new(tmp_path, robot, "tracker")).spec
-    chain = compile_robot(spec.robot)
+    chain = compile_robot(spec.robot.chain())
     space = Workspace(chain, chain.parameters.nominal, "reflector")
     for placed in (place_grid(space), place_cube(space)):
         assert placed is not None and placed.goal == POSE and "judged on position and orientation" in placed.how

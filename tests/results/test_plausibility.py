@@ -45,7 +45,7 @@ def test_a_nominal_value_30_mm_off_is_said_on_the_terminal_in_results_and_on_the
 def test_a_tolerance_from_the_spec_is_used_and_said():
     loaded = load_spec(ROOT / "examples" / "hidden_harmonic" / "spec.yaml")
     spec = loaded.spec.model_copy(update={"robot": loaded.spec.robot.model_copy(update={"tolerance": None})})
-    entries = parameter_set(spec.robot).entries
+    entries = parameter_set(spec.robot.chain()).entries
     names = [e.name for e in entries]
     values = np.array([e.nominal for e in entries])
     values[names.index("L3.x")] += 30.0  # mm
@@ -70,5 +70,5 @@ def test_a_tolerance_from_the_spec_is_used_and_said():
     from armcal.spec_parts.robot import Tolerance
 
     wide = spec.model_copy(update={"robot": spec.robot.model_copy(update={"tolerance": Tolerance(length="40 mm", angle="3 deg", scale=0.03)})})
-    judged = plausibility(wide, parameter_set(wide.robot).entries, values, std, set(names))
+    judged = plausibility(wide, parameter_set(wide.robot.chain()).entries, values, std, set(names))
     assert judged["implausible"] == [] and judged["from_spec"] and judged["length"] == pytest.approx(4.0) and judged["scale"] == 0.03  # cm

@@ -56,7 +56,7 @@ def test_a_perfect_robot_and_instrument_read_as_the_nominal_model(tmp_path):
     loaded = _spec(tmp_path, "puma560_theodolite", [("armcal: 1\n", "armcal: 1\nsimulate: {sigma_p: 0, sigma_o: 0, sigma_e: 0, noise: false}\n")])
     spec = loaded.spec
     campaign = simulate_campaign(spec, loaded.path.parent)
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     data = campaign.calibration
     for key, rows in data.groups().items():
         if device.target(key) is None:
@@ -69,7 +69,7 @@ def test_a_perfect_robot_and_instrument_read_as_the_nominal_model(tmp_path):
 def test_manufacturing_errors_move_the_tool_by_their_size():
     """sigma_p = 0.1 mm, sigma_o = 0.01 deg, sigma_e = 0.1 deg (Stone 7.4) move a PUMA tool by about a millimetre."""
     spec = load_spec(SPECS / "puma560_six.yaml").spec
-    kinematics = compile_robot(spec.robot)
+    kinematics = compile_robot(spec.robot.chain())
     robot = TrueRobot.draw(kinematics, Simulate(), np.random.default_rng(3))
     Q = np.random.default_rng(4).uniform(kinematics.limits[:, 0], kinematics.limits[:, 1], (200, 6))
     error = np.linalg.norm(robot.target_poses("reflector", Q, {})[:, :3, 3] - kinematics.target_poses("reflector", Q)[:, :3, 3], axis=1)
@@ -79,7 +79,7 @@ def test_manufacturing_errors_move_the_tool_by_their_size():
 def test_hidden_gear_harmonic_is_the_joint_error_it_declares():
     """With only a first-order harmonic on joint 2, the true pose is the nominal one at q2 + A sin(q2) + B cos(q2)."""
     spec = load_spec(SPECS / "puma560_six.yaml").spec
-    kinematics = compile_robot(spec.robot)
+    kinematics = compile_robot(spec.robot.chain())
     settings = Simulate.model_validate(
         {
             "sigma_p": 0.0, "sigma_o": 0.0, "sigma_e": 0.0,
@@ -97,7 +97,7 @@ def test_hidden_gear_harmonic_is_the_joint_error_it_declares():
 def test_shell_poses_lie_within_joint_limits_and_lvdt_travel(tmp_path):
     loaded = _spec(tmp_path, "goswami_puma560", [("  longitudes: 23", "  longitudes: 8")])
     spec = loaded.spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     planned = plan(spec.procedure, kinematics, device, spec, tmp_path)
     assert len(planned) > 0.6 * 9 * 5 * 8
     assert np.all((planned.q >= kinematics.limits[:, 0]) & (planned.q <= kinematics.limits[:, 1]))
@@ -109,7 +109,7 @@ def test_shell_poses_lie_within_joint_limits_and_lvdt_travel(tmp_path):
 
 def test_circle_point_sweeps_keep_the_other_joints_at_the_signature():
     spec = load_spec(SPECS / "puma560_dh.yaml").spec
-    kinematics, device = compile_robot(spec.robot), device_model(spec)
+    kinematics, device = compile_robot(spec.robot.chain()), device_model(spec)
     planned = plan(spec.procedure, kinematics, device, spec, SPECS)
     signature = np.asarray(spec.procedure.signature)
     for (target,), rows in _groups(planned).items():
@@ -158,7 +158,7 @@ def test_simulating_hidden_effects_reproduces_the_shipped_example(tmp_path):
             assert mine[:2] == theirs[:2], path.name  # sample, target
             np.testing.assert_allclose(np.array(mine[2:], float), np.array(theirs[2:], float), rtol=2e-9, atol=1e-12, err_msg=path.name)
     record = json.loads((tmp_path / "truth.json").read_text())
-    robot = TrueRobot.from_record(compile_robot(loaded.spec.robot), record)
+    robot = TrueRobot.from_record(compile_robot(loaded.spec.robot.chain()), record)
     assert [(e.type, e.joint, e.order, e.values) for e in robot.effects.effects] == [("gear_harmonic", 2, 1, record["hidden_effects"][0]["values"])]
 
 

@@ -262,7 +262,7 @@ def test_compensate_with_the_learned_model_reaches_the_bent_robots_targets(bent,
     assert np.max(np.abs(miss(with_model)[40:] - miss(without)[40:])) < 0.01  # the far rows: uncorrected in base_z
     assert "applied to each target's position" in note and "40 of 45 solved targets in full, 5 with a coordinate outside" in note
     elsewhere = load_spec(outcome.out_dir / "calibrated.yaml")  # the tool frame as calibrated, not at the reflector
-    kinematics = compile_robot(elsewhere.spec.robot)
+    kinematics = compile_robot(elsewhere.spec.robot.chain())
     assert np.linalg.norm(kinematics.tool_poses(Q[:1])[0, :3, 3] - kinematics.target_poses("smr", Q[:1])[0, :3, 3]) > 1.0  # the premise
     text, _, _, told = compensate(elsewhere, None, "name,x,y,z,rx,ry,rz\nt0,800,100,500,0,0,0\n", "targets")
     assert "learned_correction" not in text.splitlines()[0] and "the tool frame (robot.tool) is at none of them" in told, told

@@ -204,7 +204,7 @@ class ResidualModel:
         for target in self.point_targets():
             mine = placed.targets == target
             at = placed.points[mine]
-            shift, inside = self.point_shift(q[res.sample[at[:, 0]]], target)
+            shift, inside, _ = self.point_shift(q[res.sample[at[:, 0]]], target)
             change[at] = np.einsum("nij,nj->ni", placed.turn[mine], shift) / res.sigma[at]
             outside[at] = ~inside  # counted per base coordinate, three to a point
         return change, outside
@@ -217,13 +217,14 @@ class ResidualModel:
         """The targets whose point errors the model holds in the robot's base frame (base_x, base_y and base_z)."""
         return [at for (name, at) in self.coordinates if name == BASE[0] and all((b, at) in self.coordinates for b in BASE)]
 
-    def point_shift(self, q: np.ndarray, target: str) -> tuple[np.ndarray, np.ndarray]:
-        """(shift (N, 3), inside (N, 3)): the learned error of ``target``'s measured point (measured - predicted, the
-        robot's base frame) at joint values ``q``, zero in a base coordinate outside the calibrated region, and where it
-        is inside (``target`` one of point_targets)."""
+    def point_shift(self, q: np.ndarray, target: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(shift (N, 3), inside (N, 3), std (N, 3)): the learned error of ``target``'s measured point (measured -
+        predicted, the robot's base frame) at joint values ``q``, zero in a base coordinate outside the calibrated
+        region, where it is inside, and each coordinate's predictive standard deviation (``target`` one of
+        point_targets)."""
         predicted = [self.coordinates[name, target].predict(q) for name in BASE]
         inside = np.stack([p[2] for p in predicted], axis=1)
-        return np.where(inside, np.stack([p[0] for p in predicted], axis=1), 0.0), inside
+        return np.where(inside, np.stack([p[0] for p in predicted], axis=1), 0.0), inside, np.stack([p[1] for p in predicted], axis=1)
 
 
 @dataclass(frozen=True)
@@ -393,7 +394,7 @@ def corrected(model: ResidualModel, data: Measurements, turns: dict, device) -> 
     placed = np.array([s in turns for s in stations], dtype=bool)
     for target in model.point_targets() if set(POINT) <= set(readings) else ():
         rows = np.flatnonzero(known & placed & (targets == target))
-        shift, _ = model.point_shift(data.q[rows], target)
+        shift, _, _ = model.point_shift(data.q[rows], target)
         turned = np.einsum("nij,nj->ni", np.array([turns[stations[i]] for i in rows]).reshape(-1, 3, 3), shift)
         for k, name in enumerate(POINT):
             readings[name][rows] -= turned[:, k]

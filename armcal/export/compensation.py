@@ -124,7 +124,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     model = stored if target is not None else None
     solved = found.copy()  # without the learned correction
     if model is not None:
-        command, shift, trusted = _with_learned_point(kinematics, model, target, goals, reached, found, command, deviation, error_function)
+        command, shift, trusted, spread = _with_learned_point(kinematics, model, target, goals, reached, found, command, deviation, error_function)
     inside = ik.within_limits(kinematics, command)
     error = np.full(len(goals), np.nan)
     actual = poses(command + deviation(command), kinematics.parameters.nominal)[:, :3, 3]
@@ -135,7 +135,7 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
     corrected = poses(command, nominal) if nominal is not None else None
     units = spec.robot.units
     header = ["name", "status", *(j for j, _ in joints), "position_error_mm"] + ([f"corrected_{c}" for c in POSE] if corrected is not None else [])
-    header += ["learned_correction"] if model is not None else []
+    header += ["learned_shift_mm", "learned_std_mm", "learned_correction"] if model is not None else []
     rows, unreached = [header], []
     joint_units = [factor(joint_kind(kind), units.of(joint_kind(kind))) for _, kind in joints]
     for i, label in enumerate(labels):
@@ -153,7 +153,8 @@ def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targ
             x, y, z, rz, ry, rx = pose_from_matrix(corrected[i])
             row += [f"{v / factor('length', units.length):.12g}" for v in (x, y, z)] + [f"{v / factor('angle', units.angle):.12g}" for v in (rx, ry, rz)]
         if model is not None:
-            row.append(_learned_status(trusted[i]) if found[i] else "")
+            applied_std = np.linalg.norm(np.where(trusted[i], spread[i], 0.0))
+            row += [f"{np.linalg.norm(shift[i]):.{ERROR_DECIMALS}f}", f"{applied_std:.{ERROR_DECIMALS}f}", _learned_status(trusted[i])] if found[i] else ["", "", ""]
         rows.append(row)
     untrusted = int(np.sum(found & ~trusted.all(axis=1))) if model is not None else 0
     return csv_text(rows), unreached, left_out, _learned_note(loaded, results, stored, target, int(found.sum()), untrusted)
@@ -180,15 +181,15 @@ def _tool_target(kinematics: KinematicModel, model: ResidualModel) -> str | None
 
 
 def _with_learned_point(kinematics: KinematicModel, model: ResidualModel, target: str, goals: np.ndarray, reached: np.ndarray, found: np.ndarray,
-                        command: np.ndarray, deviation, error: ca.Function) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(command (N, n), shift (N, 3), trusted (N, 3)): the command whose calibrated pose plus the learned correction delta(command)
+                        command: np.ndarray, deviation, error: ca.Function) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(command (N, n), shift (N, 3), trusted (N, 3), std (N, 3)): the command whose calibrated pose plus the learned correction delta(command)
     is the goal's position, orientation untouched: the fixed point goal - delta(q) -> q* (inverse kinematics from
     the q* before) -> q (through the joint-side effects). delta varies slowly with q, so each step shrinks the error by
     about |d delta / dq| / |dp / dq| (a 0.1 mm change per rad against ~500 mm per rad: a few steps). ``found``: the
     goals solved without it (updated in place where the moved goal has no solution)."""
     reached = reached.copy()
     for _ in range(FIXED_POINT_STEPS if found.any() else 0):
-        shift, _ = model.point_shift(command, target)
+        shift, _, _ = model.point_shift(command, target)
         moved = goals.copy()
         moved[:, :3] -= shift
         solved = ik.solve(kinematics, moved[found], reached[found], halvings=ik.SAFE_HALVINGS, error=error)

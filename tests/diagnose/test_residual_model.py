@@ -257,6 +257,9 @@ def test_compensate_with_the_learned_model_reaches_the_bent_robots_targets(bent,
     assert rms_without > 0.5 * BEND / np.sqrt(2) / np.sqrt(3)  # the bend's share of the 3D miss (0.12 mm sin())
     assert rms_with < 0.35 * rms_without and rms_with < sim.TRACKER["noise"], (rms_with, rms_without)
     assert [r["learned_correction"] for r in rows[:40]] == ["applied"] * 40 and "learned_correction" not in plain[0]
+    shift, spread = (np.array([float(r[c]) for r in rows[:40]]) for c in ("learned_shift_mm", "learned_std_mm"))
+    assert np.all(shift < 2 * BEND) and rms(shift) > 0.25 * BEND, shift  # what the physical fit left of the bend
+    assert np.all(spread > 0) and np.all(spread < sim.TRACKER["noise"]), spread  # inside: known to better than a reading
     flagged = [r["learned_correction"] for r in rows[40:]]
     assert all(f.startswith("not applied, outside the calibrated region: ") and "base_z" in f for f in flagged), flagged
     assert np.max(np.abs(miss(with_model)[40:] - miss(without)[40:])) < 0.01  # the far rows: uncorrected in base_z

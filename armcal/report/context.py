@@ -157,13 +157,15 @@ def _diagnosis(results: dict, shown: Shown) -> dict:
 
 def _learned(results: dict, shown: Shown) -> dict | None:
     """The learned residual model's section: its verdict, then per coordinate and 3D the held-out RMS of the physical
-    model against physical + learned (k-fold folds, then the validation data), in the certificate's unit."""
+    model against physical + learned (k-fold folds, then, for an accepted model, the validation data), in the
+    certificate's unit."""
     model = results.get("residual_model")
     if model is None:
         return None
     value = lambda v, unit: fixed(shown.length(v, unit), shown.places if unit in LENGTH_UNITS else 4)  # noqa: E731
     rows = []
-    for label, figures in (("calibration poses, k-fold (held out)", model["held_out"]), ("validation (held out)", model.get("validation"))):
+    judged = [("calibration poses, k-fold (held out)", model["held_out"])]  # the test; a model not accepted is applied nowhere else
+    for label, figures in judged + ([("validation (held out)", model.get("validation"))] if model["accepted"] else []):
         if figures is None:
             continue
         for c in figures["per_coordinate"]:

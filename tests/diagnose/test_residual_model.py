@@ -9,6 +9,7 @@ the simulator drew.
 
 import csv
 import json
+import re
 import subprocess
 import sys
 from types import SimpleNamespace
@@ -102,6 +103,14 @@ def test_the_run_reports_the_learned_model_everywhere(bent):
     section = html.split("Learned residual model (Gaussian process)", 1)[1].split("<h2>", 1)[0]
     assert "validation (held out)" in section and "3D distance" in section
     assert not E_NOTATION.search(section), E_NOTATION.search(section)
+    printed = re.findall(r'<tr><td>([^<]*)</td><td>([^<]*)</td><td>mm</td><td class="num">([-0-9.]+)</td><td class="num">([-0-9.]+)</td></tr>', section)
+    expected = [(label, c["coordinate"], c["physical"], c["learned"]) for label, f in (
+        ("calibration poses, k-fold (held out)", written["held_out"]), ("validation (held out)", written["validation"]))
+        for c in [*f["per_coordinate"], {"coordinate": "3D distance", "physical": f["rms_3d_physical"], "learned": f["rms_3d_learned"]}]]
+    assert [(label, name) for label, name, *_ in printed] == [(label, name) for label, name, *_ in expected]
+    for (*_, physical, learned), (*_, true_physical, true_learned) in zip(printed, expected):  # results.json's, to the last digit printed
+        for shown, value in ((physical, true_physical), (learned, true_learned)):
+            assert abs(float(shown) - value) <= 0.5 * 10.0 ** -len(shown.split(".")[1]) + 1e-12, (shown, value)
 
 
 def test_urdf_export_says_the_learned_model_is_not_carried(bent, tmp_path):
@@ -426,3 +435,16 @@ def test_a_channel_read_at_two_keys_is_learned_at_each():
         assert inside.all() and rms(mean - error[mine]) < 0.2 * rms(error[mine]), at
     change, _ = model.correction(problem, placed, q)
     assert rms((r + change) * sigma) < 0.2 * rms(r * sigma)
+
+
+@pytest.mark.parametrize("accepted", [True, False])
+def test_the_certificate_shows_the_validation_figures_of_an_accepted_model_only(accepted):
+    """A model not accepted is applied nowhere: its section shows the k-fold test that refused it, not a validation
+    'physical + learned' it never had (the terminal says 'the physical model stands alone')."""
+    from armcal.report.context import Shown, _learned
+
+    figures = {"per_coordinate": [{"coordinate": "length", "unit": "mm", "physical": 0.05, "learned": 0.04}], "outside": 0, "readings": 10}
+    model = {"accepted": accepted, "held_out": figures, "validation": figures, "z": -3.0 if accepted else 1.0, "threshold": 2.0, "folds": 5,
+             "folds_along_joint": 2, "outside_fraction": 0.5, "joint_units": ["rad"], "hyperparameters": [], "carried": "results.json"}
+    section = _learned({"residual_model": model}, Shown({"report": {}, "device": {"unit": "mm", "noise_sigma": 0.01}}))
+    assert [row["data"] for row in section["rows"]] == ["calibration poses, k-fold (held out)"] + (["validation (held out)"] if accepted else [])

@@ -4,11 +4,12 @@ physical + learned, and the run's time with and without it.
 Cases: the Trailblazer tutorial's study (docs/tutorials/trailblazer.py: calibrate on flat.yaml, each other file held
 out at its own re-registered station), one `armcal run` per held-out file with the model and one without; and, with
 --ur10, the real UR10 (Series C calibrates, B is held out, as bench_run.py and docs/tutorials/ur10.md: its run with the
-model takes about 380 s of CPU, 11 s without, as long as the six Trailblazer files together, hence behind a flag). Skipped without ../shared/data.
+model took 261 s of CPU, 11 s without, as long as the six Trailblazer files together, hence behind a flag). Skipped without ../shared/data.
 
 Rows (from results.json's residual_model, mm): "k-fold" is the held-out error on the k-fold folds of the calibration
 data (flat.yaml, the same for every Trailblazer file: printed once); every other row is the validation data (the held-out
-file's evaluation points, predicted after its station's re-registration by the physical model). "coord": the RMS over
+file's evaluation points, predicted after its station's re-registration: each model's by itself, the physical
+model's from the readings, physical + learned's from the readings less the learned correction). "coord": the RMS over
 the position coordinates (x, y, z together), "3D": the RMS of the 3D distance; ratio: learned / physical. Seconds: the
 armcal process's CPU (user + system; on a shared machine the wall time says more about the other jobs), with the
 model and without it.

@@ -179,7 +179,8 @@ def test_sonic_fit_on_raw_ranges_or_triangulated_points(tmp_path, readings):
     import shutil
 
     folder = ROOT / "examples" / "puma560_sonic"
-    text = (folder / "spec.yaml").read_text().replace("fit: {method: s_model_features}", f"fit: {{sonic_readings: {readings}}}")
+    text = (folder / "spec.yaml").read_text().replace("fit: {method: s_model_features}\n", "").replace("  speed_of_sound:", f"  readings: {readings}\n  speed_of_sound:", 1)
+    assert f"readings: {readings}" in text and "s_model_features" not in text
     (tmp_path / "spec.yaml").write_text(text)
     shutil.copy(folder / "calibration.csv", tmp_path / "calibration.csv")
     results = run(tmp_path / "spec.yaml", tmp_path / "out").results

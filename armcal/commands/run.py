@@ -168,4 +168,4 @@ def check_stations(device, calibration) -> None:
 def fitted_device(spec, raw):
     """The spec's instrument as it fits the calibration data's readings ``raw`` (a sonic digitizer's triangulated
     points when that is all the file has, else as the spec says)."""
-    return device_model(spec, readings_mode(spec, list(raw.readings), spec.fit.sonic_readings))
+    return device_model(spec, readings_mode(spec, list(raw.readings)))

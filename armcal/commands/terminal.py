@@ -62,7 +62,7 @@ def spec_parameters(spec):
     from armcal.effects.measurement import EffectSet
     from armcal.identify.problem import combined_parameters
 
-    return combined_parameters(compile_robot(spec.robot.chain()), device_model(spec, spec.fit.sonic_readings), EffectSet(tuple(from_spec(e) for e in spec.effects)))
+    return combined_parameters(compile_robot(spec.robot.chain()), device_model(spec), EffectSet(tuple(from_spec(e) for e in spec.effects)))
 
 
 def parse_joint_values(loaded: LoadedSpec, text: str) -> np.ndarray:

@@ -55,12 +55,13 @@ class DeviceModel(ABC):
     spec: object  # the device section of the spec
 
     @classmethod
-    def from_spec(cls, spec, mode: str) -> "DeviceModel":
-        """The model of ``spec``'s device; ``mode``: which readings it fits where it offers a choice."""
+    def from_spec(cls, spec, mode: str | None) -> "DeviceModel":
+        """The model of ``spec``'s device; ``mode``: which readings it fits where it offers a choice (None: as its
+        section says)."""
         return cls(spec.device)
 
     @staticmethod
-    def readings_mode(header: list[str], requested: str) -> str:
+    def readings_mode(header: list[str], requested: str | None) -> str | None:
         """The readings a data file with this header holds, where the instrument offers a choice."""
         return requested
 

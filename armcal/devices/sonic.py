@@ -178,6 +178,7 @@ class SonicDigitizer(DeviceSpec):
     microphones: dict[str, Point] = Field(min_length=3, max_length=4, description="microphone positions in the sensor frame (A, B, C[, D])")
     robot_base: Pose = Field(Pose(), description="robot base frame in the sensor frame (free unless fixed)")
     speed_of_sound: Length = Field(gt=0.0, description="nominal speed of sound, length per second")
+    readings: Literal["ranges", "points"] = Field("ranges", description="what the fit takes: its slant ranges, or the points it triangulates from them")
     calibration_rods: list[CalibrationRod] = Field([], description="rods for the speed-of-sound compensation (App. E.1)")
     temperature_gradient: float = Field(0.0, description="vertical temperature gradient, degC per metre (App. E, B-3)")
     noise: Annotated[Union[RangeNoise, Literal["auto"]], WrapValidator(_range_noise_or_auto)] = Field(
@@ -287,13 +288,13 @@ class SonicModel(DeviceModel):
     section = SonicDigitizer
 
     @classmethod
-    def from_spec(cls, spec, mode: str) -> "SonicModel":
+    def from_spec(cls, spec, mode: str | None) -> "SonicModel":
         averaging = spec.procedure.averaging if spec.procedure is not None and spec.procedure.type == "circle_point" else 1
-        return cls(spec.device, averaging=averaging, mode=mode)
+        return cls(spec.device, averaging=averaging, mode=mode or spec.device.readings)
 
     @staticmethod
-    def readings_mode(header: list[str], requested: str) -> str:
-        """Triangulated points when that is all the file holds, else as asked."""
+    def readings_mode(header: list[str], requested: str | None) -> str | None:
+        """Triangulated points when that is all the file holds, else as asked (None: as the spec's section says)."""
         return "points" if "x" in header and not any(h.startswith("s_") for h in header) else requested
 
     def __init__(self, spec: SonicDigitizer, averaging: int = 1, mode: str = "ranges"):

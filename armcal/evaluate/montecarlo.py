@@ -63,8 +63,7 @@ class RobotStudy:
         self.spec = spec
         self.simulator = CampaignSimulator(spec, spec_dir, validation=False)
         kinematics = self.simulator.kinematics
-        mode = "points" if spec.fit.method == "s_model_features" else spec.fit.sonic_readings
-        self.fit_device = device_model(spec, mode)
+        self.fit_device = device_model(spec, "points" if spec.fit.method == "s_model_features" else None)
         free = {e.name for e in self.fit_device.parameters.entries if e.free}
         teach = spec.device.base_frame_free(free)
         solved = grid_control(kinematics, kinematics.parameters.nominal, measured_point(spec), teach)

@@ -63,7 +63,7 @@ class PlanStudy:
         self.spec, self.criterion, self.region = spec, criterion, region
         self.simulator = CampaignSimulator(spec, spec_dir, validation=False, calibration=False)
         self.kinematics = self.simulator.kinematics
-        self.device = device_model(spec, spec.fit.sonic_readings)
+        self.device = device_model(spec)
         fresh = ps.candidate_poses(spec, self.kinematics, self.device, candidates, seed)
         self.fresh_dropped = fresh.dropped
         if not len(fresh):

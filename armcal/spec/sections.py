@@ -71,9 +71,6 @@ class Fit(SpecModel):
     loss: Literal["linear", "huber", "cauchy"] = Field("linear", description="least squares, or a robust loss against gross errors")
     loss_scale: float = Field(3.0, gt=0.0, description="robust loss threshold, in noise sigmas")
     max_iterations: int = Field(100, ge=1, description="Levenberg-Marquardt iteration limit")
-    sonic_readings: Literal["ranges", "points"] = Field(
-        "ranges", description="fit the sonic digitizer's slant ranges or its triangulated points"
-    )
 
 
 class Diagnose(SpecModel):

@@ -47,7 +47,7 @@ def calibrate(spec_path):
     loaded = load_spec(spec_path)
     spec = loaded.spec
     kinematics = compile_robot(spec.robot.chain())
-    device = device_model(spec, spec.fit.sonic_readings)
+    device = device_model(spec)
     raw = read_measurements(spec_path.parent / spec.data.calibration, spec)
     calibration = device.prepare(raw)
     validation = device.prepare(read_measurements(spec_path.parent / spec.data.validation, spec))

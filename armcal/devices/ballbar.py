@@ -71,12 +71,13 @@ class PivotOffsetType(EffectType):
 
     name = "pivot_offset"
     spec_model = PivotOffset
+    part_key = "pivot"
 
     def fields(self, effect):
         return [("x", "length"), ("y", "length"), ("z", "length")]
 
     def device_shift(self, effect, parameters, value):
-        return {parameters.index(f"pivot.{effect.pivot}.{c}"): value(c) for c in "xyz"}
+        return {parameters.index(f"pivot.{effect.part}.{c}"): value(c) for c in "xyz"}
 
 
 PIVOT_OFFSET = PivotOffsetType()
@@ -216,7 +217,7 @@ class BallBarModel(DeviceModel):
 
     def candidate_effects(self, free: set[str]) -> list[EffectSpec]:
         out = [] if "bar.length" in free else [EffectSpec(BALLBAR_LENGTH)]
-        return out + [EffectSpec(PIVOT_OFFSET, pivot=p) for p in self.spec.pivots if not any(f"pivot.{p}.{c}" in free for c in "xyz")]
+        return out + [EffectSpec(PIVOT_OFFSET, part=p) for p in self.spec.pivots if not any(f"pivot.{p}.{c}" in free for c in "xyz")]
 
     def centre(self, key: Key, values: dict[str, float]) -> np.ndarray:
         return np.array([values[f"pivot.{key[0]}.{c}"] for c in "xyz"])

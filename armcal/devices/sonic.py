@@ -53,12 +53,13 @@ class RangeBiasType(EffectType):
 
     name = "range_bias"
     spec_model = RangeBias
+    part_key = "microphone"
 
     def fields(self, effect):
         return [("bias", "length")]
 
     def reading(self, effect, channel, reading, value):
-        return reading + value("bias") if channel.name == f"s_{effect.microphone}" else reading
+        return reading + value("bias") if channel.name == f"s_{effect.part}" else reading
 
 
 RANGE_BIAS = RangeBiasType()
@@ -437,7 +438,7 @@ class SonicModel(DeviceModel):
 
     def candidate_effects(self, free: set[str]) -> list[EffectSpec]:
         out = [] if "sonic.scale" in free else [EffectSpec(SENSOR_SCALE)]
-        return out + ([EffectSpec(RANGE_BIAS, microphone=m) for m in self.microphones] if self.mode == "ranges" else [])
+        return out + ([EffectSpec(RANGE_BIAS, part=m) for m in self.microphones] if self.mode == "ranges" else [])
 
     def simulated_readings(self, key: Key, values: np.ndarray, poses: np.ndarray, pd: np.ndarray, settings, rng) -> tuple:
         """Raw slant ranges through a vertically stratified air (B-3), N_avg noisy quantised readings averaged; the

@@ -161,7 +161,7 @@ def _candidate_causes(calibration) -> list[dict]:
 
 def effect_label(effect) -> str:
     parts = [effect.type] + ([f"joint {effect.joint}"] if effect.joint else []) + ([f"order {effect.order}"] if effect.order else [])
-    parts += [f"pivot {effect.pivot}"] if effect.pivot else []
+    parts += [f"{effect.kind.part_key} {effect.part}"] if effect.part else []
     return " ".join(parts)
 
 

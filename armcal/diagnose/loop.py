@@ -176,7 +176,7 @@ def strength(test: Test) -> float:
 
 def _kind(effect: EffectSpec) -> tuple:
     """What a further candidate of the same kind shares with an effect: its type and what it acts on (not an order)."""
-    return (effect.type, effect.joint, effect.microphone, effect.pivot)
+    return (effect.type, effect.joint, effect.part)
 
 
 def run_diagnosis(

@@ -28,6 +28,7 @@ class EffectType:
     opt_in: ClassVar[bool] = False  # the diagnosis tries it only when diagnose.candidates names it
     products: ClassVar[bool] = False  # its parameters may be mass-moment products m<c><k>, the keys of its values
     tilts: ClassVar[bool] = False  # it tilts the links beyond its joint (``tilt``)
+    part_key: ClassVar[str | None] = None  # the spec key naming the instrument's part it acts on (EffectSpec.part)
 
     def __init__(self) -> None:
         self.spec_model.effect_type = self
@@ -56,7 +57,7 @@ class EffectType:
         return None
 
     def spec_keys(self, effect: EffectSpec) -> dict:
-        """Its keys in a calibrated.yaml ``effects:`` entry besides type, joint, order, microphone, pivot and values."""
+        """Its keys in a calibrated.yaml ``effects:`` entry besides type, joint, order, its part and values."""
         return {}
 
     def needs(self, effect: EffectSpec) -> set[str]:

@@ -67,8 +67,7 @@ class EffectSpec:
     joint: int | None = None  # 1-based
     order: int | None = None  # harmonic order (0 = a constant: absorbed by the joint offset)
     ratio: float = 1.0  # gear ratio for motor-side harmonics
-    microphone: str | None = None
-    pivot: str | None = None
+    part: str | None = None  # the instrument's part it acts on (a microphone, a pivot), named by its type's part_key
     source: str = "temperature"  # the column it follows: thermal drift temperature or time; joint_coupling q<from>
     reference_temperature: float = 20.0
     masses: tuple[LumpedMass, ...] = ()
@@ -115,10 +114,8 @@ class EffectSpec:
             parts.append(f"from{self.source_joint}")
         if self.order is not None:
             parts.append(f"h{self.order}" + (f"r{self.ratio:g}" if self.ratio != 1.0 else ""))
-        if self.microphone is not None:
-            parts.append(self.microphone)
-        if self.pivot is not None:
-            parts.append(self.pivot)
+        if self.part is not None:
+            parts.append(self.part)
         return ".".join(parts)
 
     def fields(self) -> list[tuple[str, str]]:
@@ -171,8 +168,7 @@ def from_spec(effect) -> EffectSpec:
         joint=getattr(effect, "joint", None),
         order=getattr(effect, "order", None),
         ratio=getattr(effect, "ratio", 1.0),
-        microphone=getattr(effect, "microphone", None),
-        pivot=getattr(effect, "pivot", None),
+        part=getattr(effect, kind.part_key) if kind.part_key else None,
         source=source,
         reference_temperature=getattr(effect, "reference_temperature", 20.0),
         masses=masses,
@@ -199,9 +195,11 @@ def needs(effects: list[EffectSpec]) -> set[str]:
 def to_spec_dict(effect: EffectSpec, values: dict[str, float]) -> dict:
     """A spec ``effects:`` entry for calibrated.yaml (values in internal units; the caller converts)."""
     out: dict = {"type": effect.type}
-    for key in ("joint", "order", "microphone", "pivot"):
+    for key in ("joint", "order"):
         if getattr(effect, key) is not None:
             out[key] = getattr(effect, key)
+    if effect.part is not None:
+        out[effect.kind.part_key] = effect.part
     out.update(effect.kind.spec_keys(effect))
     out.update(values)
     return out

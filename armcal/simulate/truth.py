@@ -122,17 +122,27 @@ def record_problem(record: dict) -> str | None:
     return None
 
 
+def _part_keys() -> list[str]:
+    """The spec keys naming an instrument's part (EffectType.part_key), in the vocabulary's order."""
+    return list(dict.fromkeys(t.part_key for t in vocabulary().values() if t.part_key))
+
+
 def _record(effect: EffectSpec) -> dict:
-    """An effect as truth.json holds it: its type's name, then its other fields."""
+    """An effect as truth.json holds it: its type's name, then its other fields, its part under each part key (null
+    where it is not that key's) as truth.json has always had them."""
     fields = asdict(replace(effect, kind=None))  # the type object is not copied
     del fields["kind"]
+    fields = {out: value for key, value in fields.items()
+              for out, value in ([(k, value if k == effect.kind.part_key else None) for k in _part_keys()] if key == "part" else [(key, value)])}
     return {"type": effect.type, **fields, "held": sorted(effect.held)}
 
 
 def _effect(record: dict) -> EffectSpec:
     masses = tuple(LumpedMass(m["link"], m["mass"], tuple(m["centre"])) for m in record.get("masses", ()))
-    fields = {key: value for key, value in record.items() if key != "type"}
-    return EffectSpec(**{**fields, "kind": vocabulary()[record["type"]], "masses": masses, "held": frozenset(record.get("held", ()))})
+    keys = _part_keys()
+    fields = {key: value for key, value in record.items() if key != "type" and key not in keys}
+    part = next((record[key] for key in keys if record.get(key) is not None), None)
+    return EffectSpec(**{**fields, "part": part, "kind": vocabulary()[record["type"]], "masses": masses, "held": frozenset(record.get("held", ()))})
 
 
 def _inverse_batch(T: np.ndarray) -> np.ndarray:

@@ -132,8 +132,8 @@ def _record(effect: EffectSpec) -> dict:
     where it is not that key's) as truth.json has always had them."""
     fields = asdict(replace(effect, kind=None))  # the type object is not copied
     del fields["kind"]
-    fields = {out: value for key, value in fields.items()
-              for out, value in ([(k, value if k == effect.kind.part_key else None) for k in _part_keys()] if key == "part" else [(key, value)])}
+    part = fields.pop("part")
+    fields.update({key: part if key == effect.kind.part_key else None for key in _part_keys()})
     return {"type": effect.type, **fields, "held": sorted(effect.held)}
 
 

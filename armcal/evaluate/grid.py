@@ -82,6 +82,7 @@ class TaskControl:
     frame: str | None = None
     teach: bool = False
     goal: int = 12  # what both controls command of a frame: its pose (12), its point and z axis (6), its point (3)
+    error: object = None  # ik.error_function of the frame and goal, compiled once for every robot's control
 
     @staticmethod
     def plan(kinematics, desired: np.ndarray, p_design: np.ndarray, frame: str | None = None, teach: bool = False,
@@ -90,10 +91,12 @@ class TaskControl:
         the pose (a robot of fewer axes, procedures/placement.py), the desired orientation is the design model's at its
         solution: the one design-model control commands. ``known``: joints (N, n) the placement found reaching the
         frames, taken where the random starts find none."""
+        from armcal.identify.compiled import compiled
         from armcal.kinematics import ik
         from armcal.procedures.placement import goal_rows
 
-        q_design = ik.solve_from_starts(kinematics, goal_rows(desired, goal), frame=frame, p=p_design, starts=48)  # few goals: afford many starts
+        error = compiled([ik.error_function(kinematics, frame, width=goal)])[0]
+        q_design = ik.solve_from_starts(kinematics, goal_rows(desired, goal), frame=frame, p=p_design, starts=48, error=error)  # few goals: many starts
         if known is not None:
             q_design = np.where(np.isnan(q_design), known, q_design)
         if np.isnan(q_design).any():
@@ -102,7 +105,7 @@ class TaskControl:
             reached = kinematics.target_poses(frame, q_design, p_design) if frame else kinematics.tool_poses(q_design, p_design)
             desired = desired.copy()
             desired[:, :3, :3] = reached[:, :3, :3]
-        return TaskControl(kinematics, desired, q_design, frame, teach, goal)
+        return TaskControl(kinematics, desired, q_design, frame, teach, goal, error)
 
     def reached(self, truth, p_calibrated: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Frames (N, 4, 4) the true robot reaches under design-model and under calibrated control."""
@@ -110,7 +113,8 @@ class TaskControl:
         from armcal.procedures.placement import goal_rows
 
         goals = goal_rows(self.desired, self.goal)
-        q_calibrated = ik.solve(self.kinematics, goals, self.q_design, frame=self.frame, p=p_calibrated, halvings=ik.SAFE_HALVINGS).q
+        q_calibrated = ik.solve(self.kinematics, goals, self.q_design, frame=self.frame, p=p_calibrated, halvings=ik.SAFE_HALVINGS,
+                                error=self.error).q
         count = len(self.desired)
         extras = {"t": np.zeros(count), "temperature": np.full(count, 20.0), "dir": np.ones((count, self.kinematics.dof))}
         reach = (lambda q: truth.target_poses(self.frame, q, extras)) if self.frame else (lambda q: truth.tool_poses(q, extras))

@@ -13,9 +13,9 @@ import numpy as np
 from armcal.dataio.measurements import Measurements
 from armcal.support.errors import UserError
 from armcal.identify.stone_features import FeatureIdentification, identify
-from armcal.kinematics.compiler import compile_robot
+from armcal.kinematics.conventions import dh_links_stacked
 from armcal.kinematics.params import ParameterSet
-from armcal.kinematics.smodel import DHRow
+from armcal.kinematics.smodel import DHRow, PseudoDH
 from armcal.kinematics.transforms import inverse, pose_from_matrix, xyz_zyx
 from armcal.spec.document import Spec
 from armcal.spec.procedure import CirclePoint
@@ -76,11 +76,21 @@ def feature_parameters(spec: Spec, points: Measurements, parameters: ParameterSe
     base = xyz_zyx(*(getattr(robot.base, f).value for f in POSE))
     for field, value in zip(POSE, pose_from_matrix(pseudo.base @ inverse(base))):
         set_value(f"robot_base.{field}", value)
-    chain = compile_robot(DHRobot.model_validate(pseudo.robot_dict("features", "-", np.array([j.limits for j in robot.joints])), context={"units": {"length": "mm", "angle": "rad"}}).chain())
     for i, (target, (xyz, _)) in enumerate(zip(procedure.targets, sweeps), start=1):
         rows = np.array([key == (target,) for key in points.keys])
-        frames = chain.link_frames_batch(points.q[rows])[:, i]
+        frames = _link_frames(pseudo, points.q[rows], i)
         local = np.einsum("nij,nj->ni", np.linalg.inv(frames), np.c_[xyz, np.ones(len(xyz))])[:, :3]
         for field, value in zip("xyz", local.mean(axis=0)):
             set_value(f"{target}.{field}", value)
     return theta, found
+
+
+def _link_frames(pseudo: PseudoDH, q: np.ndarray, link: int) -> np.ndarray:
+    """Frames (N, 4, 4) of link ``link`` of the pseudo-DH model (4.71) at joints q (N, n): base A_1 ... A_link (2.9)."""
+    frames = np.broadcast_to(pseudo.base, (len(q), 4, 4))
+    for j, (row, kind) in enumerate(zip(pseudo.rows[:link], pseudo.joint_types)):
+        moved = q[:, j] + (row.theta if kind == "revolute" else row.d)
+        fixed = np.full(len(q), row.d if kind == "revolute" else row.theta)
+        theta, d = (moved, fixed) if kind == "revolute" else (fixed, moved)
+        frames = frames @ dh_links_stacked(theta, d, row.a, row.alpha)
+    return frames

@@ -7,12 +7,26 @@ variable already folded into its parameter.
 
 from __future__ import annotations
 
+import numpy as np
+
 from armcal.kinematics.transforms import compose, rot_x, rot_y, rot_z, trans, xyz_zyx
 
 
 def dh_link(theta, d, a, alpha):
     """Denavit-Hartenberg A_i = Rot(z, theta) Trans(0, 0, d) Trans(a, 0, 0) Rot(x, alpha), Stone (2.9)."""
     return compose(rot_z(theta), trans(0, 0, d), trans(a, 0, 0), rot_x(alpha))
+
+
+def dh_links_stacked(theta: np.ndarray, d: np.ndarray, a: float, alpha: float) -> np.ndarray:
+    """dh_link of N joint values at once, from arrays (N,) theta and d: (N, 4, 4), numeric only, Stone (2.9) multiplied out."""
+    ct, st, ca_, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
+    out = np.zeros((len(theta), 4, 4))
+    out[:, 0] = np.stack([ct, -st * ca_, st * sa, a * ct], axis=1)
+    out[:, 1] = np.stack([st, ct * ca_, -ct * sa, a * st], axis=1)
+    out[:, 2, 1:] = sa, ca_, 0.0
+    out[:, 2, 3] = d
+    out[:, 3, 3] = 1.0
+    return out
 
 
 def mdh_link(theta, d, a, alpha, beta):

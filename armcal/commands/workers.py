@@ -9,6 +9,7 @@ task must be a picklable top-level function and its arguments.
 from __future__ import annotations
 
 import re
+import socket
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
@@ -69,13 +70,28 @@ def check_scheduler_address(scheduler: str) -> None:
         raise UserError(f"--scheduler {scheduler!r} is not a scheduler address; give [tcp://]HOST:PORT, e.g. tcp://10.0.0.5:8786")
 
 
+CONNECT_TIMEOUT = 10.0  # s: a scheduler that takes longer to accept a connection counts as unreachable
+
+
+def _reachable(scheduler: str) -> None:
+    """A user error at once when nothing accepts a connection at the scheduler's host and port (a refused port
+    would otherwise keep the Dask client retrying until its timeout)."""
+    match = SCHEDULER_ADDRESS.fullmatch(scheduler.strip())
+    host = match.group(0).rsplit(":", 1)[0].split("://")[-1].strip("[]")
+    try:
+        socket.create_connection((host, int(match.group(1))), timeout=CONNECT_TIMEOUT).close()
+    except OSError as exc:
+        raise UserError(f"cannot reach the Dask scheduler at {scheduler} ({exc.strerror or exc})") from None
+
+
 def _on_dask(function: Callable, tasks: Sequence, scheduler: str, report: Progress) -> list:
     try:
         from distributed import Client, as_completed as dask_completed
     except ImportError:
         raise UserError("--scheduler needs Dask's distributed scheduler client: pip install 'armcal[dask]'") from None
+    _reachable(scheduler)
     try:
-        client = Client(scheduler, timeout="10s", set_as_default=False)
+        client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT:.0f}s", set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
         raise UserError(f"cannot reach the Dask scheduler at {scheduler} ({exc})") from None
     with client:

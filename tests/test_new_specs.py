@@ -3,8 +3,10 @@
 Fast, no calibration: every starting spec has held-out poses (a rehearsal's held-out RMS exists: the sonic
 digitizer's had none), every point the instrument reads sits off the last joint's axis (Goswami et al. after
 Duelen & Schroer: a point on it leaves the last joint's offset unidentified), a sphere-socket's sockets are not in
-one plane (in one they left a flat direction on the large arms) and a ball-bar's chucks and spheres are not collinear
-(Goswami: "The three magnetic chucks must not be collinear", nor the spheres). The oracle for the axis is the URDF of
+one plane (in one they left a flat direction on the large arms), a ball-bar's chucks and spheres are not collinear
+(Goswami: "The three magnetic chucks must not be collinear", nor the spheres), and the sighting instruments see the
+robot: the digitizer's sparkers stand in front of its microphones within its range limits (Stone 6.1, 7.9), the
+theodolites sight every target at a usable elevation with lines of sight that intersect at a triangulating angle. The oracle for the axis is the URDF of
 tests/robot_urdfs.py in numpy: turning the last joint by 90 deg moves a point at distance r from its axis by r sqrt(2).
 
 Slow (``-m slow``, 15 min niced on two shared cores: 84 passed in 910 s): benchmarks/new_specs_study.py's rehearsal, new -> simulate ->
@@ -25,11 +27,15 @@ from robot_urdfs import CHAINS, urdf_flange_pose
 from armcal.commands.new import new_spec_text
 from armcal.devices.registry import INSTRUMENTS
 from armcal.robot_library import library_robot, names
+from armcal.simulate.campaign import CampaignSimulator
 from armcal.spec import load_spec
 
 OFF_AXIS_MM = 20.0  # a read point this far from the last joint's axis at least
 NOT_COLLINEAR = 0.2  # a ball-bar's three chucks (spheres): second singular value of the centred points over the first
 NOT_FLAT = 0.2  # a sphere-socket's sockets: third singular value over the first (0 in one plane)
+KEPT = 0.95  # of the poses a sighting instrument's procedure asks for, the share it reads (the rest: out of sight)
+ELEVATION_DEG = 45.0  # a theodolite sights a target at most this far above or below its horizon
+INTERSECTION_DEG = (30.0, 150.0)  # the two stations' lines of sight meet at a triangulating angle (surveying's rule)
 
 
 @pytest.fixture(scope="module")
@@ -91,6 +97,58 @@ def test_a_ball_bars_chucks_and_spheres_are_not_collinear(tmp_path):
         for points in (chucks, spheres):
             s = _spread(points)
             assert s[1] >= NOT_COLLINEAR * s[0], (robot, points)
+
+
+def _rotation_zyx(pose) -> np.ndarray:
+    """Rot(z, rz) Rot(y, ry) Rot(x, rx) of a spec pose (rad), in numpy."""
+    (cz, sz), (cy, sy), (cx, sx) = ((np.cos(a), np.sin(a)) for a in (pose.rz.value, pose.ry.value, pose.rx.value))
+    return np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]) @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]]) @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+
+
+def _sighted_points(robot: str, device: str, folder) -> tuple:
+    """(spec, {plan name: the planned targets' positions in the instrument frame (N, 3), mm}) of the starting spec: the
+    simulator's plans at the design model, each target's position by the compiled chain, carried into the instrument
+    frame by device.robot_base here (Trans then Rot z, y, x). Asserts that each plan keeps KEPT of what it asks for."""
+    spec = _starter(robot, device, folder)
+    simulator = CampaignSimulator(spec, folder)
+    rotation, origin = _rotation_zyx(spec.device.robot_base), _point(spec.device.robot_base)
+    points = {}
+    for name, plan in simulator.plans.items():
+        asked = len(plan) + sum(plan.dropped.values())
+        assert len(plan) >= KEPT * asked, (robot, device, name, dict(plan.dropped))
+        seen = []
+        for key in sorted(set(plan.keys)):
+            if key[-1] in simulator.kinematics.targets:  # not a scale bar's mark
+                rows = np.array([k == key for k in plan.keys])
+                seen.append(simulator.kinematics.target_poses(key[-1], plan.q[rows])[:, :3, 3] @ rotation.T + origin)
+        points[name] = np.vstack(seen)
+    return spec, points
+
+
+def test_the_digitizer_hears_every_planned_sparker_within_its_range(tmp_path):
+    for robot in names():
+        spec, planned = _sighted_points(robot, "sonic_digitizer", tmp_path)
+        low, high = spec.device.range_limits
+        for name, points in planned.items():
+            assert (points[:, 2] > 0).all(), (robot, name)  # in front of the microphone plane (z out of it)
+            for microphone in ("A", "B", "C"):  # the three that triangulate (Stone 6.1)
+                ranges = np.linalg.norm(points - _point(spec.device.microphones[microphone]), axis=1)
+                assert low <= ranges.min() and ranges.max() <= high, (robot, name, microphone, ranges.min(), ranges.max())
+
+
+def test_the_theodolites_sight_every_planned_target_and_their_lines_intersect(tmp_path):
+    for robot in names():
+        spec, planned = _sighted_points(robot, "theodolite", tmp_path)
+        stations = [_point(station.pose) for station in spec.device.stations.values()]
+        for name, points in planned.items():
+            sights = [points - station for station in stations]
+            for sight in sights:
+                elevation = np.degrees(np.arctan2(np.abs(sight[:, 2]), np.hypot(sight[:, 0], sight[:, 1])))
+                assert elevation.max() <= ELEVATION_DEG, (robot, name, elevation.max())
+            first, second = sights
+            cosine = np.sum(first * second, axis=1) / (np.linalg.norm(first, axis=1) * np.linalg.norm(second, axis=1))
+            angle = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+            assert INTERSECTION_DEG[0] <= angle.min() and angle.max() <= INTERSECTION_DEG[1], (robot, name, angle.min(), angle.max())
 
 
 @pytest.mark.slow

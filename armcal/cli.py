@@ -326,7 +326,7 @@ def new(
     """Write a commented starting spec for a library robot and a measuring device (docs/robots.md)."""
     from armcal.support.fileio import refuse_replacing, write_text_atomic
     from armcal.devices.registry import INSTRUMENTS
-    from armcal.commands.new import default_out, new_spec_text
+    from armcal.commands.new import default_out, design_check, new_spec_text
     from armcal.robot_library import library_robot, names
 
     if list_robots:
@@ -340,8 +340,15 @@ def new(
     entry = library_robot(robot)
     path = out or default_out(entry.name, device)
     refuse_replacing([path], [], force)
-    write_text_atomic(path, new_spec_text(entry, device, path.stem))
+    text = new_spec_text(entry, device, path.stem)
+    typer.echo("checking the starting design (armcal plan's information at the design model) ...", err=True)
+    check = design_check(text, path)
+    write_text_atomic(path, text)
     typer.echo(f"wrote {path}: {entry.robot.name}, {device}; check it with `armcal validate {path}`")
+    typer.echo(f"design: {check.describe()}")
+    if not check.well_posed:
+        typer.echo(f"warning: {path}'s calibration poses do not determine this robot: raise their count, or plan them with "
+                   f"`armcal plan {path}`, before measuring", err=True)
 
 
 UNREACHABLE = 3  # compensate's exit code when a target is unreachable (as run's 3: output written, the job not done)

@@ -17,14 +17,15 @@ is flat (no flat or unidentifiable direction, no value held as weakly identifiab
 from __future__ import annotations
 
 import importlib.util
+import re
 import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, armcal_cli
 from robot_urdfs import CHAINS, urdf_flange_pose
 
-from armcal.commands.new import new_spec_text
+from armcal.commands.new import design_check, new_spec_text
 from armcal.devices.registry import INSTRUMENTS
 from armcal.robot_library import library_robot, names
 from armcal.simulate.campaign import CampaignSimulator
@@ -149,6 +150,29 @@ def test_the_theodolites_sight_every_planned_target_and_their_lines_intersect(tm
             cosine = np.sum(first * second, axis=1) / (np.linalg.norm(first, axis=1) * np.linalg.norm(second, axis=1))
             angle = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
             assert INTERSECTION_DEG[0] <= angle.min() and angle.max() <= INTERSECTION_DEG[1], (robot, name, angle.min(), angle.max())
+
+
+def test_new_says_its_design_is_well_posed(tmp_path):
+    out = tmp_path / "kr6-tracker.yaml"
+    result = armcal_cli("new", "--robot", "kuka_kr6_r900_sixx", "--device", "tracker", "--out", out)
+    assert result.returncode == 0, result.stderr
+    line = next(line for line in result.stdout.splitlines() if line.startswith("design: "))
+    assert re.fullmatch(r"design: 150 calibration poses determine \d+ parameters, condition number \d+ \(below 1000\), no flat direction", line), line
+    assert "warning" not in result.stderr
+
+
+def test_too_few_poses_are_found_undetermined(tmp_path):
+    """Four tracker poses give 12 readings, fewer than the parameters the starting spec's 150 determine: they cannot
+    determine them all (a count), and the check names the ones left out."""
+    path = tmp_path / "few.yaml"
+    text = new_spec_text(library_robot("kuka_kr6_r900_sixx"), "tracker", path.stem)
+    few = text.replace("  count: 150   # random poses", "  count: 4   # random poses", 1)
+    assert few != text
+    full, check = design_check(text, path), design_check(few, path)
+    assert full.well_posed and full.poses == 150
+    assert check.poses == 4 and 3 * check.poses < full.base
+    assert not check.well_posed and len(check.undetermined) >= full.base - 3 * check.poses
+    assert check.describe().endswith("not determined: " + ", ".join(check.undetermined))
 
 
 @pytest.mark.slow

@@ -8,12 +8,13 @@ base and flange frames zoo.py does not model, the design model's. A SCARA's grid
 grown grid's height (1.1 x 500 mm x scale) fits in the quill's travel. Then `armcal montecarlo --runs 10` and
 `armcal plan --poses N` complete on the robot, and a robot reaching no task says why with its numbers.
 
-The default run checks the SCARA (placement, Monte Carlo, plan); the whole library and 36 zoo robots are slow
+The default run checks the SCARA (placement, Monte Carlo, plan, and plan --region for its working region); the whole library and 36 zoo robots are slow
 (about 30 min on two shared cores).
 """
 
 from __future__ import annotations
 
+import json
 import re
 
 import numpy as np
@@ -126,6 +127,26 @@ def test_the_epson_like_scara_gets_both_tasks_within_its_quill(tmp_path):
     np.testing.assert_allclose(grid.frames[:, :3, 3], grid.centre + grid_vertices(grid.size), atol=1e-9)
     assert found["iso9283"].size * (1 + MARGIN) <= stroke
     _commands_complete(path, tmp_path, 20)
+
+
+def test_plan_for_the_scaras_working_region_completes_and_beats_random_poses(tmp_path):
+    """`armcal plan --region iso_cube` on the Epson-like SCARA: its working region is a cube inside what zoo.py's numpy
+    chain reaches (random joints within the limits), and the poses planned for it predict the region better than as many
+    random poses on the same simulated robots (measured: 0.008 against 0.020 mm)."""
+    path, described = _spec(tmp_path, "epson")
+    out = tmp_path / "region.csv"
+    result = armcal_cli("plan", path, "--poses", 20, "--region", "iso_cube", "--runs", 10, "--out", out)
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(out.with_suffix(".json").read_text())
+    low, high = np.array(summary["region"]["low"]), np.array(summary["region"]["high"])
+    assert np.allclose(high - low, (high - low)[0]) and (high - low)[0] > 100.0  # a cube, of a useful size (mm)
+    rng = np.random.default_rng(5)
+    q = np.array([rng.uniform(a, b, 20000) for a, b in ((-152, 152), (-147, 147), (0, 200), (-360, 360))]).T
+    reached = zoo.target_points(described, described["nominal"], q, "reflector")
+    assert (reached.min(axis=0) <= low).all() and (high <= reached.max(axis=0)).all()
+    accuracy = summary["held_out_accuracy"]
+    assert accuracy["planned"]["not_identified"] == 0
+    assert accuracy["planned"]["mean"] < accuracy["random_same_count"]["mean"]
 
 
 def test_a_robot_reaching_no_task_says_why_with_numbers(tmp_path):

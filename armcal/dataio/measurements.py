@@ -34,6 +34,11 @@ class Measurements:
     def __len__(self) -> int:
         return len(self.keys)
 
+    @property
+    def origin(self) -> str:
+        """What a message names the data by: its file, or a simulated campaign's readings, which no file holds."""
+        return str(self.source) if self.source is not None else "the simulated readings"
+
     def subset(self, rows: np.ndarray) -> "Measurements":
         """The samples at ``rows`` (indices), every column kept."""
         pick = lambda array: None if array is None else np.asarray(array)[rows]  # noqa: E731

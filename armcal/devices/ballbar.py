@@ -226,7 +226,8 @@ class BallBarModel(DeviceModel):
         """Random points on Goswami's hemispherical shells (Fig. 2) around each pivot of the spec's pairings, at a
         random latitude within the shells' range, a random longitude and a random bar length within the LVDT travel,
         the sphere's axis tilted at random about the shells' (halfway between down and the pivot); each solved by the
-        nominal model's inverse kinematics (Stone 5.4, several starts) within the joint limits."""
+        nominal model's inverse kinematics (Stone 5.4, several starts) within the joint limits, where the arm holds
+        a sphere's axis at fewer than half of them, the others at their points alone (procedures/shells.py)."""
         pairs, extension, (low, high) = _pairings(spec)
         values = self.parameters.values(self.parameters.nominal)
         pair = rng.integers(len(pairs), size=count)
@@ -245,7 +246,7 @@ class BallBarModel(DeviceModel):
         Q = np.full((count, kinematics.dof), np.nan)
         for sphere in dict.fromkeys(k[1] for k in keys):
             rows = np.flatnonzero([k[1] == sphere for k in keys])
-            Q[rows] = ik.solve_from_starts(kinematics, goals[rows], frame=sphere, seed=int(rng.integers(2**31)))
+            Q[rows] = ik.solve_pointing_where_held(kinematics, goals[rows, :3], goals[rows, 3:], sphere, int(rng.integers(2**31)))[0]
         return Q, keys, {}
 
 

@@ -58,7 +58,7 @@ def calibration_problem(spec: Spec, kinematics: KinematicModel, device: DeviceMo
     if distinct <= free:
         repeated = f" ({readings} readings, but only {distinct} of them at distinct poses)" if distinct < readings else ""
         raise UserError(
-            f"{calibration.source}: {distinct} readings cannot determine {free} free parameters{repeated}; "
+            f"{calibration.origin}: {distinct} readings cannot determine {free} free parameters{repeated}; "
             "measure more poses or fix parameters in the spec"
         )
     return problem, starting_values(problem, kinematics, device, calibration)

@@ -161,7 +161,7 @@ def _new_stations(kinematics: KinematicModel, device: DeviceModel, data: Measure
             stations.append(Station(first, first + size, range(block, block + len(problem.blocks)), registration, registering))
         first, block = first + size, block + len(problem.blocks)
     if not problems:
-        raise UserError(f"{data.source}: every row is marked use: register; mark the readings to predict use: evaluate (or leave use empty)")
+        raise UserError(f"{data.origin}: every row is marked use: register; mark the readings to predict use: evaluate (or leave use empty)")
     residuals = Residual(
         sample=np.concatenate([np.where(p.residuals.sample >= 0, rows[np.maximum(p.residuals.sample, 0)], -1) for rows, p in problems]),
         channel=sum((p.residuals.channel for _, p in problems), ()),
@@ -197,7 +197,7 @@ def _check_registration(data: Measurements, name: str | None, registering: Measu
         which = (f"held-out station {shown_value(name)} is not in the calibration data" if name is not None
                  else "the instrument moved (data.instrument_moved)")
         raise UserError(
-            f"{data.source}: {which}, so its frame is re-registered from its "
+            f"{data.origin}: {which}, so its frame is re-registered from its "
             f"rows marked use: register, and it has {count} (lines: {lines}){' on one line' if count >= 3 else ''}; "
             "mark at least 3 readings of points not on one line as use: register"
         )

@@ -237,6 +237,22 @@ def solve_from_starts(
 
 
 UNSOLVED, OUTSIDE_LIMITS, SOLVED = 0, 1, 2  # solve_from_starts_why's outcomes per goal
+HELD = 0.5  # solve_pointing_where_held: the share of point-and-axis goals an arm holding the axis reaches
+
+
+def solve_pointing_where_held(model: KinematicModel, points: np.ndarray, axes: np.ndarray, frame: str, seed: int = 0
+                              ) -> tuple[np.ndarray, np.ndarray, list[tuple[int, ...]]]:
+    """``solve_from_starts_why`` of goals (M, 6), a point and the frame's z axis at it. An arm that holds the axis at
+    fewer than HELD of them (fewer than six axes, or a wrist that cannot turn the frame so) is sent to the points alone
+    (M, 3) where it does not hold it."""
+    Q, outcome, blocking = solve_from_starts_why(model, np.concatenate([points, axes], axis=1), frame=frame, seed=seed)
+    unheld = np.flatnonzero(outcome == UNSOLVED)
+    if len(unheld) <= (1.0 - HELD) * len(points):
+        return Q, outcome, blocking
+    Q[unheld], outcome[unheld], alone = solve_from_starts_why(model, points[unheld], frame=frame, seed=seed)
+    for row, joints in zip(unheld, alone):
+        blocking[row] = joints
+    return Q, outcome, blocking
 
 
 def solve_from_starts_why(

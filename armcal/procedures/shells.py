@@ -6,7 +6,9 @@ mid-travel with its extension rod, unless the procedure gives one) above the
 pivot. Each is solved with inverse kinematics of the nominal model, the sphere
 at the point and the end effector's z axis halfway between straight down and
 the pivot (the bar then clears the fixture and more of the hemisphere is
-reachable than facing the pivot squarely); poses that do not converge,
+reachable than facing the pivot squarely; an arm that holds that axis at fewer than half the points of a shell,
+one of fewer than six axes or a wrist that cannot turn the sphere's frame so, is sent to the other points alone:
+the reading is the sphere centre's distance from the pivot whatever its axis); poses that do not converge,
 leave the joint limits, or read outside the LVDT travel are dropped, each counted
 under its reason (DROP_REASONS) with the latitude and longitude of the point.
 """
@@ -62,7 +64,7 @@ def plan_shells(procedure: Shells, kinematics: KinematicModel, device: DeviceMod
         inward = (centre - points) / radius
         axis = inward + [0.0, 0.0, -1.0]
         axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-        q, outcome, blocking = ik.solve_from_starts_why(kinematics, np.concatenate([points, axis], axis=1), frame=pairing.sphere, seed=seed)
+        q, outcome, blocking = ik.solve_pointing_where_held(kinematics, points, axis, pairing.sphere, seed)
         ok = outcome == ik.SOLVED
         reachable = np.zeros(len(points), dtype=bool)
         reachable[ok] = device.visible(key, kinematics.target_poses(pairing.sphere, q[ok]))

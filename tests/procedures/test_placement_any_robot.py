@@ -15,7 +15,6 @@ The default run checks the SCARA (placement, Monte Carlo, plan, and plan --regio
 from __future__ import annotations
 
 import json
-import re
 
 import numpy as np
 import pytest
@@ -175,8 +174,8 @@ def _flat(described) -> bool:
 @pytest.mark.parametrize("robot", SLOW_ROBOTS)
 def test_any_robot_gets_its_tasks_and_the_commands_complete(tmp_path, robot):
     """Tasks placed and both commands complete; a robot that cannot have them refuses with its reason: a zoo chain
-    whose point moves in a plane (no box stands in it), or a zoo ball-bar fixture whose shells armcal's planner does
-    not reach (the zoo places its pivots for its own campaign, not for armcal's shells)."""
+    whose point moves in a plane (no box stands in it). A zoo ball-bar arm that cannot hold the sphere's axis on the
+    shells (fewer than six axes, or its wrist) is sent to the shells' points alone, and completes too."""
     path, described = _spec(tmp_path, robot)
     spec = load_spec(path).spec
     if described is not None and _flat(described):
@@ -188,9 +187,6 @@ def test_any_robot_gets_its_tasks_and_the_commands_complete(tmp_path, robot):
         return
     _tasks_are_placed(path, described)
     if described is not None and spec.device.type == "ballbar":
-        try:
-            _commands_complete(path, tmp_path, 120)  # one reading a pose: 30 cannot determine its 30-odd base parameters
-        except UserError as refused:
-            assert re.search(r"plans no pose the instrument can read \(\d+ c\d-s\d: (no inverse kinematics|joint limit)", str(refused)), refused
+        _commands_complete(path, tmp_path, 120)  # one reading a pose: 30 cannot determine its 30-odd base parameters
         return
     _commands_complete(path, tmp_path, 30)

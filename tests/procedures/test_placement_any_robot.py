@@ -26,7 +26,8 @@ from armcal.support.errors import UserError
 from armcal.evaluate.grid import measured_point
 from armcal.kinematics.compiler import compile_robot
 from armcal.commands.montecarlo import montecarlo
-from armcal.procedures.placement import MARGIN, POSE, Workspace, grid_vertices, placed, unplaced
+from armcal.kinematics import ik
+from armcal.procedures.placement import MARGIN, POSE, Workspace, goal_rows, grid_vertices, placed, unplaced
 from armcal.robot_library import names
 from armcal.spec import load_spec
 
@@ -40,6 +41,7 @@ EPSON_ZOO = dict(convention="dh", types=["revolute", "revolute", "prismatic", "r
                  nominal={**{f"j{i}.{f}": v for i, row in enumerate([(0, 387, 375, 0), (0, 0, 275, 180), (0, 0, 0, 0), (0, 0, 0, 0)], start=1)
                              for f, v in zip(zoo.DH_FIELDS, row)}, "reflector.x": 60.0, "reflector.y": 0.0, "reflector.z": 0.0})
 ZOO_SEEDS = range(36)
+GROWN_STARTS = 200  # random starts of the grown task's inverse kinematics (_check_grown)
 SLOW_ROBOTS = [*names(), *(f"zoo{seed}" for seed in ZOO_SEEDS)]
 
 
@@ -84,11 +86,13 @@ def _check_placed(chain, described, frame: str | None, stands) -> None:
 
 
 def _check_grown(chain, described, frame: str | None, stands) -> None:
-    """The task grown by the margin about its centre is reached too, checked as the task itself."""
+    """The task grown by the margin about its centre is reached too, checked as the task itself. The grown copy lies at
+    the reach's edge by construction (the bisection's largest size), where the search's few nearest starts can miss a
+    goal on the last bits of the arithmetic (zoo seed 31's P3): it is solved here from GROWN_STARTS random starts."""
     grown = stands.frames.copy()
     grown[:, :3, 3] = stands.centre + (1 + MARGIN) * (stands.frames[:, :3, 3] - stands.centre)
-    ok, q = Workspace(chain, chain.parameters.nominal, frame).solutions(grown, stands.goal)
-    assert ok.all()
+    q = ik.solve_from_starts(chain, goal_rows(grown, stands.goal), frame=frame, starts=GROWN_STARTS)
+    assert not np.isnan(q).any()
     reached = _forward(described, chain, frame, q)
     np.testing.assert_allclose(reached[:, :3, 3], grown[:, :3, 3], atol=1e-4)
     assert ((q >= chain.limits[:, 0]) & (q <= chain.limits[:, 1])).all()

@@ -9,6 +9,7 @@ import pytest
 from conftest import EXAMPLE_DATA, ROOT, copy_example
 
 from armcal.commands.run import run
+from armcal.results.schema import Results
 from armcal.spec import load_spec
 
 EXAMPLE = ROOT / "examples" / "goswami_ballbar"
@@ -66,7 +67,7 @@ def test_an_angle_difference_is_the_shorter_way_round():
     results = _golden()
     row = next(p for p in results["parameters"] if p["unit"] == "deg")
     row.update(nominal=180.0, value=-179.99, std=0.001)
-    shown = next(r for r in certificate_context(results, {})["parameters"] if r["name"] == row["name"])
+    shown = next(r for r in certificate_context(Results.model_validate(results), {})["parameters"] if r["name"] == row["name"])
     assert float(shown["difference"]) == pytest.approx(0.01)
 
 
@@ -79,5 +80,5 @@ def test_a_prismatic_joint_is_plotted_against_its_position_and_torques_say_their
     results = _golden()
     results["diagnosis"]["plots"] = ["residual_vs_torque.svg"]
     results["diagnosis"]["evidence"] = {"torque_masses": "5 kg at each link frame's origin beyond the joint (assumed: the spec declares no masses)"}
-    [plot] = certificate_context(results, {"residual_vs_torque.svg": "<svg/>"})["plots"]
+    [plot] = certificate_context(Results.model_validate(results), {"residual_vs_torque.svg": "<svg/>"})["plots"]
     assert "assumed: the spec declares no masses" in plot["title"]

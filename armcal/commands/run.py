@@ -64,7 +64,7 @@ def run(spec_path: Path, out_dir: Path | None = None, force: bool = False, pdf: 
         return _run(loaded, inputs, user_templates, Path(out_dir), pdf, publish, earlier)
 
 
-def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path, pdf: bool, publish, earlier: list[tuple[str, dict]]) -> Outcome:
+def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path, pdf: bool, publish, earlier: list[tuple[str, Results]]) -> Outcome:
     """The stages in order, then the whole output set published at once."""
     spec = loaded.spec
     folder = loaded.path.parent
@@ -98,7 +98,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     figures = run_figures(loaded, calibrated, device, calibration.rows, tasks, found, list(plots), measured)
     results = build_results(loaded, figures, run_id=identifier, warnings=warnings,
                             simulated={"calibration": simulated[0], "validation": simulated[1] if validation_path else None})
-    results = Results.model_validate({**results.model_dump(mode="json"), "history": history_entries(results.model_dump(mode="json"), earlier)})
+    results = results.model_copy(update={"history": history_entries(results, earlier)})
     calibrated_spec, left_out = calibrated_text(loaded, results, calibrated, out_dir)
     if left_out is not None:
         results = in_results_only(results, left_out)
@@ -108,7 +108,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
             "calibrated.yaml": calibrated_spec,
             "residuals.csv": residuals_csv(calibrated, calibration.rows, validation.rows if validation is not None else None, spec.robot.units),
             **plots,
-            **certificate_files(results.model_dump(mode="json"), plots, pdf, user_templates),
+            **certificate_files(results, plots, pdf, user_templates),
         }
     publish(files, identifier)  # only now, all at once: a failure above leaves the previous set as it was
     return Outcome(results, out_dir)

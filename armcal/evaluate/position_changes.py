@@ -56,23 +56,24 @@ class PositionChange:
     significant: bool = False
 
 
-def run_model(folder: Path, results: dict) -> RunModel | None:
+def run_model(folder: Path, results) -> RunModel | None:
     """The geometry of a run's calibrated.yaml in ``folder`` and its parameters' covariance from ``results``' std
-    and correlation matrix; None for results written before the matrix was."""
-    matrix = results.get("correlation_matrix")
+    and correlation matrix (``results``: results.json's Results model, read by attribute); None for results written
+    before the matrix was."""
+    matrix = results.correlation_matrix
     if matrix is None:
         return None
     robot = load_spec(folder / "calibrated.yaml").spec.robot
     model = compile_robot(robot.chain())
-    rows = {p["name"]: p for p in results["parameters"]}
+    rows = {p.name: p for p in results.parameters}
     names = model.parameters.names
-    order = {name: k for k, name in enumerate(matrix["parameters"])}
-    identified = [i for i, n in enumerate(names) if n in order and rows[n]["std"] is not None]
-    std = np.array([rows[names[i]]["std"] * factor(model.parameters.entries[i].kind, rows[names[i]]["unit"]) for i in identified])
+    order = {name: k for k, name in enumerate(matrix.parameters)}
+    identified = [i for i, n in enumerate(names) if n in order and rows[n].std is not None]
+    std = np.array([rows[names[i]].std * factor(model.parameters.entries[i].kind, rows[names[i]].unit) for i in identified])
     taken = [order[names[i]] for i in identified]
-    correlation = np.array(matrix["matrix"], dtype=float)[np.ix_(taken, taken)]
+    correlation = np.array(matrix.matrix, dtype=float)[np.ix_(taken, taken)]
     ranges = model.limits.copy()
-    for i, (recorded, kind) in enumerate(zip(results["campaign"].get("joint_ranges") or [], model.joint_types)):
+    for i, (recorded, kind) in enumerate(zip(results.campaign.joint_ranges or [], model.joint_types)):
         if recorded is not None:
             unit = robot.units.of(joint_kind(kind))
             ranges[i] = [v * factor(joint_kind(kind), unit) for v in recorded]

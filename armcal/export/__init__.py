@@ -18,6 +18,7 @@ from armcal.export.ur_calibration import ur_calibration
 from armcal.export.urdf import urdf
 from armcal.kinematics.compiler import compile_robot
 from armcal.results.reader import read_results
+from armcal.results.schema import Results
 from armcal.spec import LoadedSpec, load_spec
 
 FORMATS = ("urdf", "ur-calibration", "dh-table", "json")
@@ -30,7 +31,7 @@ class Export:
     learned: str | None = None  # what the terminal says of the run's learned residual model (learned_model)
 
 
-def learned_model(loaded: LoadedSpec, results: dict | None, fmt: str | None = None) -> str | None:
+def learned_model(loaded: LoadedSpec, results: Results | None, fmt: str | None = None) -> str | None:
     """What to say of the learned residual model (diagnose.residual_model): ``export --format json`` carries an
     accepted one (calibrated.yaml's residual_model section, or results.json's), the other formats do not; a spec that
     asks for one and holds none carries none. None when there is nothing to say."""
@@ -44,7 +45,7 @@ def learned_model(loaded: LoadedSpec, results: dict | None, fmt: str | None = No
     return None
 
 
-def calibration_source(path: Path) -> tuple[LoadedSpec, dict | None]:
+def calibration_source(path: Path) -> tuple[LoadedSpec, Results | None]:
     """The calibrated spec of ``path`` (a spec, or a run's folder) and the run's results.json if there is one."""
     if path.is_dir():
         spec = path / "calibrated.yaml"

@@ -30,6 +30,7 @@ from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel, compile_robot
 from armcal.kinematics.mapped import Mapped
 from armcal.kinematics.transforms import pose_from_matrix, xyz_zyx_stacked
+from armcal.results.schema import Results
 from armcal.spec import LoadedSpec
 from armcal.spec.learned import BASE
 from armcal.diagnose.residual_model import ResidualModel, stored_model
@@ -104,7 +105,7 @@ def _poses(fk: ca.Function):
     return lambda Q, p: mapped(Q, p)[0].transpose(0, 2, 1)
 
 
-def compensate(loaded: LoadedSpec, results: dict | None, targets_text: str, targets_name: str) -> tuple[str, list[str], list[str], str | None]:
+def compensate(loaded: LoadedSpec, results: Results | None, targets_text: str, targets_name: str) -> tuple[str, list[str], list[str], str | None]:
     """(CSV text of the commands, the targets not reached with why, the effects not compensated, what to say of the
     learned residual model: None where there is none)."""
     spec = loaded.spec
@@ -208,7 +209,7 @@ def _learned_status(trusted: np.ndarray) -> str:
     return "not applied, outside the calibrated region: " + " ".join(name for name, ok in zip(BASE, trusted) if not ok)
 
 
-def _learned_note(loaded: LoadedSpec, results: dict | None, model: ResidualModel | None, target: str | None, solved: int, untrusted: int) -> str | None:
+def _learned_note(loaded: LoadedSpec, results: Results | None, model: ResidualModel | None, target: str | None, solved: int, untrusted: int) -> str | None:
     """What the terminal says of the learned residual model (None: there is none)."""
     if target is not None:
         return (f"learned correction (residual_model: the error of target {target}'s measured point, where the tool frame is, in the "
@@ -272,11 +273,11 @@ def _nearest_turn(kinematics: KinematicModel, Q: np.ndarray, start: np.ndarray) 
     return Q
 
 
-def _nominal(kinematics: KinematicModel, results: dict | None) -> np.ndarray | None:
+def _nominal(kinematics: KinematicModel, results: Results | None) -> np.ndarray | None:
     """The robot's nominal parameter vector from a run's results.json (its parameters' nominal values), else None."""
     if results is None:
         return None
-    given = {p["name"]: (p["nominal"], p["unit"]) for p in results["parameters"]}
+    given = {p.name: (p.nominal, p.unit) for p in results.parameters}
     out = kinematics.parameters.nominal.copy()
     for i, entry in enumerate(kinematics.parameters.entries):
         if entry.name in given:

@@ -8,6 +8,7 @@ import json
 from pydantic import ValidationError
 
 from armcal.kinematics.params import parameter_set
+from armcal.results.schema import Results
 from armcal.spec import LoadedSpec
 from armcal.spec.checks import residual_model_problems
 from armcal.spec.loader import plain_message
@@ -16,10 +17,10 @@ from armcal.spec.learned import ResidualModelSection, section_of
 from armcal.support.units import from_internal
 
 
-def parameters_json(loaded: LoadedSpec, results: dict | None) -> str:
+def parameters_json(loaded: LoadedSpec, results: Results | None) -> str:
     """JSON text: the robot, its chain parameters (value, unit, free, std) and its effects as the spec writes them."""
     spec = loaded.spec
-    std = {p["name"]: p["std"] for p in results["parameters"]} if results else {}
+    std = {p.name: p.std for p in results.parameters} if results else {}
     rows = []
     for entry in parameter_set(spec.robot.chain()).entries:
         unit = spec.robot.units.of(entry.kind)
@@ -33,7 +34,7 @@ def parameters_json(loaded: LoadedSpec, results: dict | None) -> str:
     document = {
         "robot": {"name": spec.robot.name, "model": spec.robot.model, "serial": spec.robot.serial, "convention": spec.robot.convention},
         "source": str(loaded.path),
-        "run_id": results.get("run_id") if results else None,
+        "run_id": results.run_id if results else None,
         "parameters": rows,
         "effects": [e.model_dump(mode="json", by_alias=True, exclude_none=True) for e in spec.effects],
     }
@@ -43,12 +44,12 @@ def parameters_json(loaded: LoadedSpec, results: dict | None) -> str:
     return json.dumps(document, indent=2) + "\n"
 
 
-def learned_section(loaded: LoadedSpec, results: dict | None) -> ResidualModelSection | None:
+def learned_section(loaded: LoadedSpec, results: Results | None) -> ResidualModelSection | None:
     """The accepted learned residual model a calibration carries: its calibrated spec's residual_model section, else
     (a run written before calibrated.yaml stored it) its results.json's."""
     if loaded.spec.residual_model is not None:
         return loaded.spec.residual_model
-    section = section_of((results or {}).get("residual_model"))
+    section = section_of(results.residual_model.model_dump() if results and results.residual_model else None)
     if section is None:
         return None
     try:

@@ -23,6 +23,7 @@ from armcal.support.output_set import check_set, replace_in_set
 from armcal.report.context import certificate_context
 from armcal.results.history import history_entries
 from armcal.results.reader import read_earlier, read_results, results_file
+from armcal.results.schema import Results
 
 PACKAGED = Path(__file__).resolve().parent.parent / "templates"
 TEMPLATE = "certificate.html.j2"
@@ -222,9 +223,9 @@ def render_certificate(context: dict, folders: list[Path], pdf: bool, created: s
     return files
 
 
-def certificate_files(results: dict, plots: dict[str, str], pdf: bool = True, user_templates: Path | None = None) -> dict[str, bytes]:
-    """certificate.html (and .pdf), rendered in memory."""
-    return render_certificate(certificate_context(results, plots), template_folders(user_templates), pdf, results["created"])
+def certificate_files(results: Results, plots: dict[str, str], pdf: bool = True, user_templates: Path | None = None) -> dict[str, bytes]:
+    """certificate.html (and .pdf) of ``results``, rendered in memory."""
+    return render_certificate(certificate_context(results, plots), template_folders(user_templates), pdf, results.created)
 
 
 def write_files(folder: Path, files: dict[str, bytes | str]) -> list[Path]:
@@ -257,9 +258,9 @@ def rerender(results_path: Path, pdf: bool = True, force: bool = False, history:
     folder = results_path.parent
     results = read_results(results_path)
     if history:
-        earlier = read_earlier(history, results["robot"]["serial"], str(results_path))
-        results = {**results, "history": history_entries(results, earlier)}
-    plots = read_plots(results_path, results["diagnosis"]["plots"])
+        earlier = read_earlier(history, results.robot.serial, str(results_path))
+        results = results.model_copy(update={"history": history_entries(results, earlier)})
+    plots = read_plots(results_path, results.diagnosis.plots)
     check_set(folder, [results_path.name, *plots])
     existing = [name for name in CERTIFICATES if (folder / name).exists()]
     if existing and not force:
@@ -268,4 +269,4 @@ def rerender(results_path: Path, pdf: bool = True, force: bool = False, history:
         context = certificate_context(results, plots)
     except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:  # in its free-form blocks (evaluation)
         raise UserError(f"{results_path}: not a results.json as armcal writes it ({type(exc).__name__}: {exc})") from None
-    return replace_in_set(folder, render_certificate(context, template_folders(None), pdf, results["created"]))
+    return replace_in_set(folder, render_certificate(context, template_folders(None), pdf, results.created))

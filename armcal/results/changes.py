@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Protocol
 
 from scipy.special import ndtr  # the normal distribution function (scipy.stats.norm.sf's own); scipy.stats imports slowly
 
@@ -41,24 +42,34 @@ class Change:
     not_comparable: str | None = None  # which side did not identify it, and why
 
 
-def _unidentified(row: dict | None, reasons: dict[str, str]) -> str | None:
+class Row(Protocol):
+    """A parameter of one calibration: results.json's ParameterResult, or a calibrated spec's (results/compare.py)."""
+
+    name: str
+    unit: str
+    value: float
+    std: float | None
+    free: bool
+
+
+def _unidentified(row: Row | None, reasons: dict[str, str]) -> str | None:
     """Why one side's row is not an identified value with an uncertainty (None when it is)."""
     if row is None:
         return "absent"
-    if not row["free"]:
-        return reasons.get(row["name"], "held")
-    return None if row["std"] is not None else "not identified (no std)"
+    if not row.free:
+        return reasons.get(row.name, "held")
+    return None if row.std is not None else "not identified (no std)"
 
 
-def _in_unit(row: dict, unit: str) -> dict:
+def _in_unit(row: Row, unit: str) -> tuple[float, float | None]:
     """A parameter row's value and std in ``unit`` (the later calibration's: a spec may have changed its units)."""
-    if row["unit"] == unit:
-        return row
-    scales = next((table for table in (LENGTH_UNITS, ANGLE_UNITS) if row["unit"] in table and unit in table), None)
+    if row.unit == unit:
+        return row.value, row.std
+    scales = next((table for table in (LENGTH_UNITS, ANGLE_UNITS) if row.unit in table and unit in table), None)
     if scales is None:
-        raise UserError(f"{row['name']}: one calibration gives it in {row['unit']}, the other in {unit}; they cannot be compared")
-    scale = scales[row["unit"]] / scales[unit]
-    return {**row, "unit": unit, "value": row["value"] * scale, "std": None if row["std"] is None else row["std"] * scale}
+        raise UserError(f"{row.name}: one calibration gives it in {row.unit}, the other in {unit}; they cannot be compared")
+    scale = scales[row.unit] / scales[unit]
+    return row.value * scale, None if row.std is None else row.std * scale
 
 
 @dataclass(frozen=True)
@@ -82,20 +93,20 @@ NEARLY = "weakly identifiable: nearly "  # its start for an effect parameter hel
 NO_BASIS = Basis({})  # a calibrated spec: its base set is not written
 
 
-def basis(results: dict) -> Basis:
-    """A results.json's Basis."""
-    return Basis({f["name"]: f["reason"] for f in results["identifiability"]["fixed"]}, tuple(map(tuple, results["correlations"])))
+def basis(results) -> Basis:
+    """The Basis of ``results`` (results.json's Results model)."""
+    return Basis({f.name: f.reason for f in results.identifiability.fixed}, tuple(map(tuple, results.correlations)))
 
 
-def changes(old: list[dict], new: list[dict], old_basis: Basis = NO_BASIS, new_basis: Basis = NO_BASIS) -> list[Change]:
+def changes(old: list[Row], new: list[Row], old_basis: Basis = NO_BASIS, new_basis: Basis = NO_BASIS) -> list[Change]:
     """Every parameter either calibration identified: with its change in combined standard uncertainties where both
     did, the significant ones flagged by Holm's test at family-wise ALPHA; else "not comparable" and why.
 
     Where one side identified a parameter the other held, the two base sets carry that redundancy on different
     members, and the values of its partners (Basis.partners, on either side) mean different things too: they are
     not comparable either."""
-    before, after = {p["name"]: p for p in old}, {p["name"]: p for p in new}
-    names = [name for name in [*after, *(n for n in before if n not in after)] if any(r is not None and r["free"] for r in (after.get(name), before.get(name)))]
+    before, after = {p.name: p for p in old}, {p.name: p for p in new}
+    names = [name for name in [*after, *(n for n in before if n not in after)] if any(r is not None and r.free for r in (after.get(name), before.get(name)))]
     unidentified = {name: [f"{side}: {reason}" for side, reason in (("old", _unidentified(before.get(name), old_basis.reasons)),
                                                                     ("new", _unidentified(after.get(name), new_basis.reasons))) if reason]
                     for name in names}
@@ -106,13 +117,13 @@ def changes(old: list[dict], new: list[dict], old_basis: Basis = NO_BASIS, new_b
     rows = []
     for name in names:
         p, q = after.get(name), before.get(name)
-        unit = (p or q)["unit"]
-        q = q and _in_unit(q, unit)
+        unit = (p or q).unit
+        old_value, old_std = _in_unit(q, unit) if q is not None else (None, None)
         why = unidentified[name] or ([f"carries a redundancy with {moved[name]}, which one side holds and the other identifies"] if name in moved else [])
-        spread = 0.0 if why else math.hypot(p["std"], q["std"])
+        spread = 0.0 if why else math.hypot(p.std, old_std)
         if not why and spread == 0:
             why = ["no uncertainty on either side"]
-        rows.append(Change(name, unit, q and q["value"], p and p["value"], None if why else (p["value"] - q["value"]) / spread,
+        rows.append(Change(name, unit, old_value, p and p.value, None if why else (p.value - old_value) / spread,
                            not_comparable="; ".join(why) or None))
     tested = [i for i, c in enumerate(rows) if c.z is not None]
     for i, rejected in zip(tested, holm([2.0 * ndtr(-abs(rows[i].z)) for i in tested])):

@@ -23,13 +23,25 @@ from armcal.support.gitrepo import file_at_revision
 from armcal.kinematics.params import parameter_set
 from armcal.results.reader import read_results, results_file
 from armcal.evaluate.multiple_testing import ALPHA
-from armcal.results.changes import NO_BASIS, Basis, basis, changes, check_same_robot
+from armcal.results.changes import NO_BASIS, Basis, Row, basis, changes, check_same_robot
+from armcal.results.schema import Results
 from armcal.spec.locations import yaml_path
 from armcal.spec import LoadedSpec, load_spec
 from armcal.spec.loader import spec_from_bytes
 from armcal.support.units import from_internal
 
 _CALIBRATED_BY = re.compile(r"Calibrated by armcal \S+ on (?P<created>\S+) .*?, run (?P<run>\w+)")
+
+
+@dataclass(frozen=True)
+class SpecParameter:
+    """A calibrated spec's parameter as compared (results/changes.py Row), in the spec's units."""
+
+    name: str
+    unit: str
+    value: float
+    std: float | None
+    free: bool
 
 
 @dataclass(frozen=True)
@@ -42,9 +54,9 @@ class Calibration:
     chain: tuple[str, int]  # convention, number of joints
     created: str | None
     run_id: str | None
-    parameters: list[dict]  # {name, unit, value, std, free}, values in the spec's units
+    parameters: list[Row]  # values in the spec's units
     basis: Basis  # a run's base set: why it held what it held, what moves together
-    run: tuple[Path, dict] | None = None  # a run's folder (with its calibrated.yaml) and results.json
+    run: tuple[Path, Results] | None = None  # a run's folder (with its calibrated.yaml) and results.json
 
 
 def calibration(argument: str) -> Calibration:
@@ -57,10 +69,10 @@ def calibration(argument: str) -> Calibration:
     if folder or path.suffix == ".json":
         file = results_file(path)
         results = read_results(file)
-        robot = results["robot"]
+        robot = results.robot
         run = (file.parent, results) if (file.parent / "calibrated.yaml").is_file() else None
-        return Calibration(argument, robot["name"], robot["serial"], (robot["convention"], robot["dof"]), results["created"],
-                           results.get("run_id"), results["parameters"], basis(results), run)
+        return Calibration(argument, robot.name, robot.serial, (robot.convention, robot.dof), results.created,
+                           results.run_id, results.parameters, basis(results), run)
     if not exists and "@" in argument:
         file, _, revision = argument.rpartition("@")
         raw = file_at_revision(Path(file), revision)
@@ -82,13 +94,8 @@ def _from_spec(loaded: LoadedSpec, label: str) -> Calibration:
                 break
         unit = spec.robot.units.of(entry.kind)
         std = getattr(node, "std", None)
-        rows.append({
-            "name": entry.name,
-            "unit": unit,
-            "value": from_internal(entry.nominal, entry.kind, unit),
-            "std": None if std is None else from_internal(std, entry.kind, unit),
-            "free": entry.free,
-        })
+        rows.append(SpecParameter(entry.name, unit, from_internal(entry.nominal, entry.kind, unit),
+                                  None if std is None else from_internal(std, entry.kind, unit), entry.free))
     header = _CALIBRATED_BY.search(loaded.text)
     created, run = (header["created"], header["run"]) if header else (None, None)
     return Calibration(label, spec.robot.name, spec.robot.serial, (spec.robot.convention, spec.robot.dof), created, run, rows, NO_BASIS)

@@ -30,8 +30,8 @@ WHY = {
 
 def status_words(status: str, plausibility) -> str:
     """'converged', or 'converged; implausible values' (a fit that did not converge says that alone: its values are
-    no estimate to judge). ``plausibility``: results.json's block as a model or a dict, or None."""
-    found = plausibility.get("implausible") if isinstance(plausibility, dict) else getattr(plausibility, "implausible", None)
+    no estimate to judge). ``plausibility``: results.json's Plausibility, or None."""
+    found = plausibility is not None and plausibility.implausible
     return status + ("; implausible values" if status == "converged" and found else "")
 
 

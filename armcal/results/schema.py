@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, field_validator, model_validator
 
 TASK_TITLES = {"grid_task": "Grid-touching task (Stone 7.2.1)", "iso9283": "ISO 9283 positional accuracy"}  # evaluation's tasks
 
@@ -17,6 +17,15 @@ LINK_FIELDS = {"x", "y", "z", "alpha", "beta", "gamma"}
 
 class _Frozen(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+_FREE_FORM = TypeAdapter(dict)
+
+
+def as_written(block: dict | None) -> dict | None:
+    """A free-form block as results.json holds it (lists, plain numbers, null for inf and nan): the object a run hands
+    the report and the one read back from the file hold the same values."""
+    return None if block is None else _FREE_FORM.dump_python(block, mode="json")
 
 
 class GitInfo(_Frozen):
@@ -213,6 +222,8 @@ class Diagnosis(_Frozen):
     alpha: float | None = None  # family-wise level of a round's score tests (Holm); absent in older results
     evidence: dict | None = None
     plots: list[str] = []
+
+    _plain_evidence = field_validator("evidence")(as_written)
 
 
 class CoordinateRMS(_Frozen):
@@ -465,6 +476,8 @@ class Results(_Frozen):
     held_out_check: HeldOutCheck | None = None  # null: no held-out data
     plausibility: Plausibility | None = None  # null: results of an older armcal
     residual_model: ResidualModelResult | None = None  # null: diagnose.residual_model is none (or no diagnosis ran)
+
+    _plain_evaluation = field_validator("evaluation")(as_written)
 
     @model_validator(mode="after")
     def _consistent(self) -> "Results":

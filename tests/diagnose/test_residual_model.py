@@ -442,9 +442,10 @@ def test_the_certificate_shows_the_validation_figures_of_an_accepted_model_only(
     """A model not accepted is applied nowhere: its section shows the k-fold test that refused it, not a validation
     'physical + learned' it never had (the terminal says 'the physical model stands alone')."""
     from armcal.report.context import Shown, _learned
+    from armcal.results.schema import ResidualModelResult
 
     figures = {"per_coordinate": [{"coordinate": "length", "unit": "mm", "physical": 0.05, "learned": 0.04}], "outside": 0, "readings": 10}
     model = {"accepted": accepted, "held_out": figures, "validation": figures, "z": -3.0 if accepted else 1.0, "threshold": 2.0, "folds": 5,
              "folds_along_joint": 2, "outside_fraction": 0.5, "joint_units": ["rad"], "hyperparameters": [], "carried": "results.json"}
-    section = _learned({"residual_model": model}, Shown({"report": {}, "device": {"unit": "mm", "noise_sigma": 0.01}}))
+    section = _learned(ResidualModelResult.model_validate({**model, "kind": "gp", "seconds": 0.0}), Shown(None, "mm", 0.01))
     assert [row["data"] for row in section["rows"]] == ["calibration poses, k-fold (held out)"] + (["validation (held out)"] if accepted else [])

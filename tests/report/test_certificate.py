@@ -12,6 +12,7 @@ from armcal.support.errors import UserError
 from armcal.report.context import certificate_context
 from armcal.report.pdf import TemplateFetcher
 from armcal.report.render import PACKAGED, TEMPLATE, certificate_files, render_html, write_files
+from armcal.results.schema import Results
 
 GOLDEN = TESTS / "data" / "golden"
 
@@ -22,14 +23,14 @@ def _results() -> dict:
 
 def test_golden_html(tmp_path):
     """Set ARMCAL_REFRESH_GOLDEN=1 to accept an intended change of the certificate."""
-    html = render_html(certificate_context(_results(), {}), [PACKAGED])
+    html = render_html(certificate_context(Results.model_validate(_results()), {}), [PACKAGED])
     if os.environ.get("ARMCAL_REFRESH_GOLDEN"):
         (GOLDEN / "certificate.html").write_text(html)
     assert html == (GOLDEN / "certificate.html").read_text()
 
 
 def test_a_missing_value_fails_the_render(tmp_path):
-    context = certificate_context(_results(), {})
+    context = certificate_context(Results.model_validate(_results()), {})
     del context["unit"]
     with pytest.raises(UserError, match=rf"^{PACKAGED / TEMPLATE}:\d+: 'unit' is undefined$") as failed:
         render_html(context, [PACKAGED])
@@ -49,7 +50,7 @@ def test_injected_markup_prints_as_text_and_reads_no_file(tmp_path, monkeypatch)
         return original(self, url, headers)
 
     monkeypatch.setattr(TemplateFetcher, "fetch", spy)
-    write_files(tmp_path, certificate_files(results, {}))
+    write_files(tmp_path, certificate_files(Results.model_validate(results), {}))
     html = (tmp_path / "certificate.html").read_text()
     assert attack not in html and "&lt;img src=&#34;file:///etc/passwd&#34;&gt;" in html
     assert all(url.startswith("file://" + str(PACKAGED)) or url.startswith("data:") for url in fetched), fetched
@@ -82,7 +83,7 @@ def test_report_rerenders_from_results_alone(tmp_path):
 
 def test_user_templates_are_searched_first(tmp_path):
     (tmp_path / "certificate.html.j2").write_text("<p>{{ number }} by our lab</p>")
-    html = render_html(certificate_context(_results(), {}), [tmp_path, PACKAGED])
+    html = render_html(certificate_context(Results.model_validate(_results()), {}), [tmp_path, PACKAGED])
     assert html == f"<p>{_results()['report']['certificate_number']} by our lab</p>"
 
 
@@ -92,5 +93,5 @@ def test_user_templates_are_sandboxed(tmp_path):
 
     (tmp_path / "certificate.html.j2").write_text("{{ number.__class__.__mro__[1].__subclasses__() }}")
     with pytest.raises(UserError, match=r"certificate.html.j2:1: access to attribute '__class__'") as failed:
-        render_html(certificate_context(_results(), {}), [tmp_path, PACKAGED])
+        render_html(certificate_context(Results.model_validate(_results()), {}), [tmp_path, PACKAGED])
     assert isinstance(failed.value.__cause__, SecurityError)

@@ -15,6 +15,7 @@ from armcal.support.errors import SpecError
 from armcal.evaluate.acceptance import rms_uncertainty
 from armcal.commands.run import run
 from armcal.report.context import certificate_context
+from armcal.results.schema import Results
 from armcal.report.render import PACKAGED, render_html
 from armcal.simulate import find_truth
 from armcal.spec import load_spec
@@ -192,7 +193,7 @@ def test_a_simple_acceptance_failing_reads_fail_with_its_rule():
     value = results["residuals"]["validation"]["after"]["rms"]
     results["acceptance"] = {"statistic": "validation_rms", "value": value, "unit": "mm", "tolerance": value / 2, "decision_rule": "simple",
                              "expanded_uncertainty": None, "coverage_factor": None, "acceptance_limit": value / 2, "verdict": "fail"}
-    html = render_html(certificate_context(results, {}), [PACKAGED])
+    html = render_html(certificate_context(Results.model_validate(results), {}), [PACKAGED])
     assert f"FAIL: the figure {value:.4f} mm is above the acceptance limit {value / 2:.4f} mm." in html
     assert "simple acceptance (ILAC-G8:2019 4.2.1)" in html and "not used (simple acceptance)" in html
 

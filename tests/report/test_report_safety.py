@@ -18,6 +18,7 @@ from armcal.report.context import certificate_context
 from armcal.report.plots import draw_plots
 from armcal.report.pdf import TemplateFetcher
 from armcal.report.render import PACKAGED, TEMPLATE, certificate_files, render_html
+from armcal.results.schema import Results
 
 GOLDEN = TESTS / "data" / "golden"
 OUTSIDE = Path("/etc/hostname")  # any readable file outside the folders
@@ -86,14 +87,14 @@ def test_a_template_file_must_be_a_small_regular_text_file_inside_its_folder(tmp
     else:
         part.write_bytes(b"caf\xe9")
     with pytest.raises(UserError, match=rf"{TEMPLATE}:1: .*(leads outside|not a regular file|larger than 1 MiB|not UTF-8)") as refused:
-        render_html(certificate_context(golden(), {}), [tmp_path, PACKAGED])
+        render_html(certificate_context(Results.model_validate(golden()), {}), [tmp_path, PACKAGED])
     assert "root:" not in str(refused.value)
 
 
 def test_a_link_inside_the_folder_to_a_file_of_the_folder_is_followed(tmp_path):
     (tmp_path / "real.html").write_text("<p>{{ number }}</p>")
     (tmp_path / TEMPLATE).symlink_to(tmp_path / "real.html")
-    assert render_html(certificate_context(golden(), {}), [tmp_path, PACKAGED]) == f"<p>{golden()['report']['certificate_number']}</p>"
+    assert render_html(certificate_context(Results.model_validate(golden()), {}), [tmp_path, PACKAGED]) == f"<p>{golden()['report']['certificate_number']}</p>"
 
 
 @pytest.fixture()
@@ -162,7 +163,7 @@ def test_the_fetcher_refuses_outside_files_links_fifos_and_the_network(tmp_path,
 def test_a_template_asking_for_a_local_file_fails_the_pdf(tmp_path):
     (tmp_path / TEMPLATE).write_text('<p>{{ number }}</p><img src="file:///etc/passwd">')
     with pytest.raises(UserError, match="may not fetch file:///etc/passwd"):
-        certificate_files(golden(), {}, True, tmp_path)
+        certificate_files(Results.model_validate(golden()), {}, True, tmp_path)
 
 
 # Reproducibility
@@ -234,7 +235,7 @@ def test_run_reports_a_template_syntax_error_with_file_and_line(example, tmp_pat
 def test_every_template_error_names_the_file_and_line(tmp_path, source, line, message):
     (tmp_path / TEMPLATE).write_text(source)
     with pytest.raises(UserError) as failed:
-        render_html(certificate_context(golden(), {}), [tmp_path, PACKAGED])
+        render_html(certificate_context(Results.model_validate(golden()), {}), [tmp_path, PACKAGED])
     assert str(failed.value).startswith(f"{tmp_path / TEMPLATE}:{line}: ") and message in str(failed.value), str(failed.value)
 
 
@@ -242,7 +243,7 @@ def test_an_error_in_an_included_template_names_that_file(tmp_path):
     (tmp_path / TEMPLATE).write_text("{% include 'part.html' %}")
     (tmp_path / "part.html").write_text("a\nb\n{% endif %}")
     with pytest.raises(UserError, match=rf"^{tmp_path / 'part.html'}:3: "):
-        render_html(certificate_context(golden(), {}), [tmp_path, PACKAGED])
+        render_html(certificate_context(Results.model_validate(golden()), {}), [tmp_path, PACKAGED])
 
 
 def tamper(path: Path, kind: str) -> None:

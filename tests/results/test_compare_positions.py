@@ -15,6 +15,7 @@ from robot_urdfs import Chain, Joint, urdf_flange_pose
 
 from armcal.commands.run import run
 from armcal.results.compare import compare
+from armcal.results.reader import read_results
 from armcal.evaluate.position_changes import RunModel, poses, predicted, run_model
 
 # Kinova Gen3 (6 dof) joint origins as kortex_description writes them, metres and radians (rounded angles included)
@@ -140,7 +141,7 @@ def test_the_propagated_covariance_is_j_c_jt_of_an_independent_chain(gen3):
     first, _, _ = gen3
     from armcal.spec import load_spec
 
-    base = run_model(first, json.loads((first / "results.json").read_text()))
+    base = run_model(first, read_results(first / "results.json"))
     robot = load_spec(first / "calibrated.yaml").spec.robot
     names = [base.model.parameters.names[i] for i in base.identified]
     nominal = {n: base.model.parameters.nominal[base.model.parameters.index(n)] for n in names}

@@ -1,6 +1,7 @@
 """The spec's residual_model section (a learned model calibrated.yaml stores, spec/learned.py): every mistake in it,
 hand-made or of another robot, is one located plain message and exit 1; compensate says what it cannot carry."""
 
+import json
 import subprocess
 import sys
 from types import SimpleNamespace
@@ -12,6 +13,7 @@ import independent_sim as sim
 from armcal.commands.run import residual_model_note
 from armcal.export.compensation import compensate
 from armcal.results.calibrated import calibrated_yaml
+from armcal.results.schema import Results
 from armcal.spec import load_spec
 from armcal.support.errors import SpecError, UserError
 from armcal.export.parameters import learned_section
@@ -123,7 +125,10 @@ def test_results_jsons_edited_model_is_one_plain_message(tmp_path, edit, message
     error, ' prefix and 'another robot' for a NaN were shown), naming the field."""
     coordinate = {"coordinate": "base_x", "at": "smr", "inputs": [[0.1] * 6, [0.2] * 6], "targets": [0.01, 0.02], "signal_variance": 0.01,
                   "length_scales": [1] * 6, "noise_variance": 0.0004, **edit}
-    results = {"residual_model": {"kind": "gp", "outside_fraction": 0.5, "joint_units": ["rad"] * 6, "model": [coordinate]}}
+    learned = {"kind": "gp", "accepted": True, "z": -3.0, "threshold": 2.0, "folds": 5, "folds_along_joint": 2,
+               "held_out": {"per_coordinate": [], "outside": 0, "readings": 2}, "outside_fraction": 0.5, "joint_units": ["rad"] * 6,
+               "hyperparameters": [], "seconds": 0.0, "carried": "results.json", "model": [coordinate]}
+    results = Results.model_validate({**json.loads((ROOT / "tests" / "data" / "golden" / "results.json").read_text()), "residual_model": learned})
     with pytest.raises(UserError) as caught:
         learned_section(load_spec(_spec(tmp_path, "")), results)
     assert str(caught.value) == f"the run's results.json: {message}"

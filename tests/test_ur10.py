@@ -1,7 +1,6 @@
 """The whole loop on real data: the UR10 laser-tracker series of ../shared/data (skipped without them)."""
 
 import csv
-import json
 import math
 import subprocess
 import sys
@@ -17,6 +16,7 @@ from armcal.export.compensation import compensate
 from armcal.kinematics.compiler import compile_robot
 from armcal.kinematics.transforms import compose, pose_from_matrix, rot_x, rot_y, rot_z, trans, xyz_zyx
 from armcal.commands.run import run
+from armcal.results.reader import read_results
 from armcal.spec import load_spec
 
 SERIES = SHARED_DATA / "ipa-robot-accuracy"
@@ -110,7 +110,7 @@ def _check_compensation(tmp_path, results) -> None:
     tmac = lambda Q: chain.target_poses("tmac", Q)[:, :3, 3]  # noqa: E731
     nominal_registration = kabsch(tmac(_joints(C)), _poses(C)[:, :3, 3])
     measured, joints = _poses(B), _joints(B)
-    compensated, reached = _commands(calibrated, json.loads((tmp_path / "out" / "results.json").read_text()), registration, measured, joints)
+    compensated, reached = _commands(calibrated, read_results(tmp_path / "out" / "results.json"), registration, measured, joints)
     uncalibrated, reached_nominal = _commands(nominal, None, nominal_registration, measured, joints)
     assert reached.mean() > 0.995 and reached_nominal.mean() > 0.995  # 1494 of 1495: the stretched home pose is wrist-singular
     ok = reached & reached_nominal

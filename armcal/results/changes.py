@@ -22,6 +22,7 @@ from scipy.special import ndtr  # the normal distribution function (scipy.stats.
 
 from armcal.support.errors import UserError, shown_text
 from armcal.evaluate.multiple_testing import ALPHA, holm
+from armcal.results.schema import Results
 from armcal.support.units import ANGLE_UNITS, LENGTH_UNITS
 
 
@@ -93,8 +94,8 @@ NEARLY = "weakly identifiable: nearly "  # its start for an effect parameter hel
 NO_BASIS = Basis({})  # a calibrated spec: its base set is not written
 
 
-def basis(results) -> Basis:
-    """The Basis of ``results`` (results.json's Results model)."""
+def basis(results: Results) -> Basis:
+    """The Basis of a run's results.json."""
     return Basis({f.name: f.reason for f in results.identifiability.fixed}, tuple(map(tuple, results.correlations)))
 
 

@@ -341,10 +341,10 @@ def new(
     path = out or default_out(entry.name, device)
     refuse_replacing([path], [], force)
     text = new_spec_text(entry, device, path.stem)
-    typer.echo("checking the starting design (armcal plan's information at the design model) ...", err=True)
-    check = design_check(text, path)
     write_text_atomic(path, text)
     typer.echo(f"wrote {path}: {entry.robot.name}, {device}; check it with `armcal validate {path}`")
+    typer.echo("checking the starting design (armcal plan's information at the design model) ...", err=True)
+    check = design_check(text, path)
     typer.echo(f"design: {check.describe()}")
     if not check.well_posed:
         typer.echo(f"warning: {path}'s calibration poses do not determine this robot: raise their count, or plan them with "

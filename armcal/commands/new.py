@@ -5,7 +5,7 @@ targets the device needs; the device, procedure, data and simulate sections are 
 robot's size from the reference setups shipped in specs/ (Stone's digitizer, Goswami's ball-bar
 fixture, the two-theodolite network), scaled by the robot's size against the PUMA 560's.
 
-Before the spec is written its design is checked as `armcal plan` judges a plan (procedures/pose_selection.py): the
+Once the spec is written its design is checked as `armcal plan` judges a plan (procedures/pose_selection.py): the
 Jacobian of its own calibration poses at the design model, weighted by the instrument's noise, must determine every
 free parameter (no unidentifiable direction, nothing held as weakly identifiable, identify/precision.py) with a
 condition number below DESIGN_CONDITION, the bound below which a run reports no flat direction. The starting specs are

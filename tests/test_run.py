@@ -132,33 +132,33 @@ def test_stones_feature_method_beside_least_squares(tmp_path):
     outcome = run(ROOT / "examples" / "puma560_sonic" / "spec.yaml", tmp_path)
     results = outcome.results
     assert results.status == "converged" and results.solver.method == "s_model_features"
-    block = results.evaluation["s_model_features"]
-    radii = [j["radius"] for j in block["joints"]]
+    block = results.evaluation.s_model_features
+    radii = [j.radius for j in block.joints]
     assert radii == pytest.approx([40.87, 41.62, 43.71, 33.30, 45.13, 33.30], abs=0.05)  # Table 6-1, cm
-    features_rms = block["residuals"]["s_model_features"]["rms"]
-    least_squares_rms = block["residuals"]["least_squares"]["rms"]
+    features_rms = block.residuals.s_model_features.rms
+    least_squares_rms = block.residuals.least_squares.rms
     assert least_squares_rms <= features_rms < 1.5 * least_squares_rms  # features come close; the full fit does better
     assert results.residuals.calibration.after.rms == pytest.approx(features_rms)
     # the last frame turns with joint 6 as the design's does: sparker 6 where Table F-1 puts it,
     # and signature-based control keeps the tool's orientation (it was off by 180 deg about z6)
     values = {p.name: p.value for p in results.parameters}
     assert [values[f"sparker6.{c}"] for c in "xyz"] == pytest.approx([33.3, 0.0, 10.225], abs=0.1)
-    for row in results.evaluation["grid_task"]["indices"]:
-        if row["index"].endswith(" orientation") and "relative" not in row["index"]:
-            assert row["calibrated"] < row["design"] / 3, row
+    for row in results.evaluation.grid_task.indices:
+        if row.index.endswith(" orientation") and "relative" not in row.index:
+            assert row.calibrated < row.design / 3, row
 
 
 def test_grid_task_design_versus_calibrated_control(tmp_path):
     """With the simulation's truth beside the data, the run controls the true robot both ways (Stone 6.6)."""
     outcome = run(ROOT / "examples" / "goswami_ballbar" / "spec.yaml", tmp_path)
-    rows = {r["index"]: r for r in outcome.results.evaluation["grid_task"]["indices"]}
+    rows = {r.index: r for r in outcome.results.evaluation.grid_task.indices}
     assert len(rows) == 34
     for vertex in (1, 4, 5, 8):
         radial = rows[f"vertex {vertex} radial"]
-        assert radial["calibrated"] < radial["design"] / 5  # calibrated control lands closer, on the true robot
-    iso = outcome.results.evaluation["iso9283"]["poses"]  # the example's report asks for the ISO cube too
-    assert [r["pose"] for r in iso] == ["P1", "P2", "P3", "P4", "P5"]
-    assert all(r["calibrated"] < r["design"] / 5 for r in iso)
+        assert radial.calibrated < radial.design / 5  # calibrated control lands closer, on the true robot
+    iso = outcome.results.evaluation.iso9283.poses  # the example's report asks for the ISO cube too
+    assert [r.pose for r in iso] == ["P1", "P2", "P3", "P4", "P5"]
+    assert all(r.calibrated < r.design / 5 for r in iso)
     from pypdf import PdfReader
 
     assert "ISO 9283 positional accuracy" in " ".join(p.extract_text() for p in PdfReader(tmp_path / "certificate.pdf").pages)
@@ -170,7 +170,7 @@ def test_no_grid_task_without_the_datas_truth(tmp_path):
     for name in ("spec.yaml", "calibration.csv", "validation.csv"):  # the data without their truth.json
         shutil.copy(ROOT / "examples" / "theodolite" / name, tmp_path / name)
     evaluation = run(tmp_path / "spec.yaml", tmp_path / "out").results.evaluation
-    assert all("needs the true robot" in evaluation[task]["skipped"] for task in ("grid_task", "iso9283"))
+    assert all("needs the true robot" in getattr(evaluation, task).skipped for task in ("grid_task", "iso9283"))
 
 
 @pytest.mark.parametrize("readings", ["ranges", "points"])
@@ -246,4 +246,4 @@ def test_a_truth_of_another_robot_model_skips_the_tasks(tmp_path):
     text = text.replace("    reflector: {link: 6, x: 5.0, y: 0.0, z: 10.0}\n", "    reflector: {link: 6, x: 5.0, y: 0.0, z: 10.0}\n    spare: {link: 3, x: 1.0}\n")
     (tmp_path / "spec.yaml").write_text(text)
     results = run(tmp_path / "spec.yaml", tmp_path / "out", pdf=False).results
-    assert "another model" in results.evaluation["grid_task"]["skipped"]
+    assert "another model" in results.evaluation.grid_task.skipped

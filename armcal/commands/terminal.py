@@ -16,7 +16,7 @@ from armcal.identify.precision import WEAK
 from armcal.report.numbers import counted, improvement, median_improvement, p_value, task_noise
 from armcal.results.breakdown import before_data, table_lines
 from armcal.results.plausibility import WHY, status_words
-from armcal.results.schema import TASK_TITLES
+from armcal.results.schema import TASK_TITLES, TaskSkipped
 from armcal.spec import LoadedSpec
 from armcal.kinematics.params import joint_kind
 from armcal.support.units import from_internal, to_internal
@@ -201,19 +201,19 @@ def task_lines(r) -> list[str]:
     """Each evaluation task the spec asks for: where it stood and what calibration gained, or why it was skipped."""
     lines = []
     for task, name in TASK_TITLES.items():
-        block = r.evaluation.get(task)
+        block = getattr(r.evaluation, task)
         if block is None:
             continue
-        if "skipped" in block:
-            lines.append(f"  {name}: skipped: {block['skipped']}")
+        if isinstance(block, TaskSkipped):
+            lines.append(f"  {name}: skipped: {block.skipped}")
         elif task == "grid_task":
-            noise = lambda unit: task_noise(r.device.noise_sigma, r.device.unit, unit, block["centre"], block["unit"])  # noqa: E731
-            factors = [improvement(row["design"], row["calibrated"], noise(row["unit"])) for row in block["indices"]]
-            lines.append(f"  {name}: {len(factors)} indices, {median_improvement(factors)}; {block['placement']}")
+            noise = lambda unit: task_noise(r.device.noise_sigma, r.device.unit, unit, block.centre, block.unit)  # noqa: E731
+            factors = [improvement(row.design, row.calibrated, noise(row.unit)) for row in block.indices]
+            lines.append(f"  {name}: {len(factors)} indices, {median_improvement(factors)}; {block.placement}")
         else:
-            cube, worst = block["cube"], lambda key: max(row[key] for row in block["poses"])  # noqa: E731
-            lines.append(f"  {name} (side {cube['side']:.4g} {cube['unit']}): AP at P1-P5 at most {worst('design'):.4g} -> "
-                         f"{worst('calibrated'):.4g} {cube['unit']}; {cube['placement']}")
+            cube, worst = block.cube, lambda key: max(getattr(row, key) for row in block.poses)  # noqa: E731
+            lines.append(f"  {name} (side {cube.side:.4g} {cube.unit}): AP at P1-P5 at most {worst('design'):.4g} -> "
+                         f"{worst('calibrated'):.4g} {cube.unit}; {cube.placement}")
     return lines
 
 

@@ -10,9 +10,10 @@ from armcal.evaluate.multiple_testing import ALPHA
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.report.numbers import AT_THE_NOISE, counted, decimals, fixed, given, improvement, measured, p_value, powers_of_ten, ratio, significant, task_noise
 from armcal.results.plausibility import WHY, status_words
-from armcal.results.schema import (TASK_TITLES, AcceptanceResult, Campaign, Candidate, Diagnosis, EffectResult, FlatDirection,
-                                   HistoryEntry, NoiseEstimate, ParallelAxesInfo, ParameterChange, ParameterResult, Plausibility,
-                                   Residuals, Residuals3D, ResidualModelResult, Results, RobotInfo, SimulatedData, SpecInfo)
+from armcal.results.schema import (TASK_TITLES, AcceptanceResult, Campaign, Candidate, Diagnosis, EffectResult, Evaluation, FeaturesResult,
+                                   FlatDirection, GridIndex, GridTaskResult, HistoryEntry, IsoPose, IsoTaskResult, NoiseEstimate, ParallelAxesInfo,
+                                   ParameterChange, ParameterResult, Plausibility, Residuals, Residuals3D, ResidualModelResult, Results, RobotInfo,
+                                   SimulatedData, SpecInfo, TaskSkipped)
 from armcal.support.units import ANGLE_UNITS, LENGTH_UNITS, factor
 
 PLOT_TITLES = {
@@ -210,75 +211,79 @@ def _distance_rows(block: Residuals3D | None, shown: Shown) -> list[dict]:
     return rows
 
 
-def _index_rows(rows: list[dict], label: str, shown: Shown, centre, centre_unit: str) -> list[dict]:
+def _index_rows(rows: list[GridIndex] | list[IsoPose], label: str, shown: Shown, centre, centre_unit: str) -> list[dict]:
     """A task's index rows (results.json's free-form evaluation block): values in the certificate's unit at the
     instrument's resolution, the factor where it means something (report/numbers.improvement); a row whose values
     read as an earlier row's says so."""
     out, first = [], {}
     for r in rows:
-        unit = r["unit"]
+        unit, name = r.unit, getattr(r, label)
         noise = task_noise(shown.noise_sigma, shown.reading_unit, unit, centre, centre_unit)
         places = decimals(shown.length(noise, unit), shown.places)
-        design, calibrated = fixed(shown.length(r["design"], unit), places), fixed(shown.length(r["calibrated"], unit), places)
-        twin = first.setdefault((unit, design, calibrated), r[label])
+        design, calibrated = fixed(shown.length(r.design, unit), places), fixed(shown.length(r.calibrated, unit), places)
+        twin = first.setdefault((unit, design, calibrated), name)
         out.append({
-            "index": r[label] + (f" (other points; equal to {twin}'s at these decimals)" if twin != r[label] else ""),
+            "index": name + (f" (other points; equal to {twin}'s at these decimals)" if twin != name else ""),
             "unit": shown.unit_of(unit),
             "design": design,
             "calibrated": calibrated,
-            "factor": improvement(r["design"], r["calibrated"], noise),
+            "factor": improvement(r.design, r.calibrated, noise),
         })
     return out
 
 
-def _grid(grid: dict, shown: Shown) -> list[dict]:
-    return _index_rows(grid.get("indices", []), "index", shown, grid.get("centre"), grid.get("unit", "mm"))
+def _grid(grid: GridTaskResult | None, shown: Shown) -> list[dict]:
+    return _index_rows(grid.indices, "index", shown, grid.centre, grid.unit or "mm") if grid else []
 
 
-def _features(evaluation: dict, shown: Shown) -> dict | None:
+def _features(block: FeaturesResult | None, shown: Shown) -> dict | None:
     """Stone's feature identification: each joint's features with their accuracy (6.11-6.13), pseudo-DH table."""
-    block = evaluation.get("s_model_features")
-    if not block:
+    if block is None:
         return None
-    units = block["units"]
-    length = lambda v: shown.length(v, units["length"])  # noqa: E731
-    residuals = block["residuals"]
+    units = block.units
+    length = lambda v: shown.length(v, units.length)  # noqa: E731
     return {
-        "units": {**units, "length": shown.unit},
+        "units": {"length": shown.unit, "angle": units.angle},
         "joints": [
             {
-                "joint": str(j["joint"]),
-                "radius": measured(length(j["radius"]), length(j["centre_sigma"])),
-                "range": fixed(j["range_deg"], 1),
-                "plane": measured(j["plane_sigma"], j["plane_sigma"]),
-                "centre": measured(length(j["centre_sigma"]), length(j["centre_sigma"])),
+                "joint": str(j.joint),
+                "radius": measured(length(j.radius), length(j.centre_sigma)),
+                "range": fixed(j.range_deg, 1),
+                "plane": measured(j.plane_sigma, j.plane_sigma),
+                "centre": measured(length(j.centre_sigma), length(j.centre_sigma)),
             }
-            for j in block["joints"]
+            for j in block.joints
         ],
         "table": [
-            {k: str(v) if k == "joint" else fixed(length(v) if k in ("d", "a") else v, 4) for k, v in row.items()} for row in block["pseudo_dh"]
+            {"joint": str(row.joint), "theta_offset": fixed(row.theta_offset, 4), "d": fixed(length(row.d), 4), "a": fixed(length(row.a), 4),
+             "alpha": fixed(row.alpha, 4)}
+            for row in block.pseudo_dh
         ],
-        "rms_features": shown.reading(residuals["s_model_features"]["rms"]),
-        "rms_least_squares": shown.reading(residuals["least_squares"]["rms"]),
+        "rms_features": shown.reading(block.residuals.s_model_features.rms),
+        "rms_least_squares": shown.reading(block.residuals.least_squares.rms),
     }
 
 
-def _iso(evaluation: dict, shown: Shown) -> dict | None:
-    iso = evaluation.get("iso9283")
-    if not iso or "poses" not in iso:
+def _iso(iso: IsoTaskResult | None, shown: Shown) -> dict | None:
+    if iso is None:
         return None
-    cube = iso.get("cube")  # results before armcal placed the cube have none
-    rows = _index_rows(iso["poses"], "pose", shown, cube["centre"] if cube else None, cube["unit"] if cube else "mm")
+    cube = iso.cube  # results before armcal placed the cube have none
+    rows = _index_rows(iso.poses, "pose", shown, cube.centre if cube else None, cube.unit if cube else "mm")
     where = ""
     if cube:
-        at = lambda v: significant(shown.length(v, cube["unit"]))  # noqa: E731
-        where = f"centre ({', '.join(at(v) for v in cube['centre'])}) {shown.unit}, side {at(cube['side'])} {shown.unit}: {cube['placement']}"
-    return {"rows": rows, "tcp": iso["tool_centre_point"], "frame": iso["task_frame"], "cube": where}
+        at = lambda v: significant(shown.length(v, cube.unit))  # noqa: E731
+        where = f"centre ({', '.join(at(v) for v in cube.centre)}) {shown.unit}, side {at(cube.side)} {shown.unit}: {cube.placement}"
+    return {"rows": rows, "tcp": iso.tool_centre_point, "frame": iso.task_frame, "cube": where}
 
 
-def _skipped_tasks(evaluation: dict) -> list[dict]:
+def _evaluated(block: GridTaskResult | IsoTaskResult | TaskSkipped | None):
+    """A task's block where it was evaluated, else None (not asked for, or skipped)."""
+    return None if isinstance(block, TaskSkipped) else block
+
+
+def _skipped_tasks(evaluation: Evaluation) -> list[dict]:
     """The evaluation tasks the spec asked for that were not evaluated, with the reason."""
-    return [{"name": TASK_TITLES[task], "why": block["skipped"]} for task, block in evaluation.items() if task in TASK_TITLES and "skipped" in block]
+    return [{"name": TASK_TITLES[task], "why": block.skipped} for task, block in evaluation.tasks() if isinstance(block, TaskSkipped)]
 
 
 def _plots(diagnosis: Diagnosis, svgs: dict[str, str]) -> list[dict]:
@@ -465,7 +470,7 @@ def certificate_context(results: Results, plots: dict[str, str]) -> dict:
     identifiability = results.identifiability
     noise = results.noise_check
     git = spec.git
-    grid = results.evaluation.get("grid_task") or {}
+    grid = _evaluated(results.evaluation.grid_task)
     simulated, origin = _origin(results.simulated)
     shown = Shown.of(results)
     return {
@@ -518,12 +523,12 @@ def certificate_context(results: Results, plots: dict[str, str]) -> dict:
         "distances": _distance_rows(results.residuals_3d, shown),
         "distance_unit": shown.unit,
         "grid": _grid(grid, shown),
-        "grid_tcp": grid.get("tool_centre_point", ""),
-        "grid_frame": grid.get("task_frame", ""),
-        "grid_placement": grid.get("placement", ""),
+        "grid_tcp": (grid.tool_centre_point or "") if grid else "",
+        "grid_frame": (grid.task_frame or "") if grid else "",
+        "grid_placement": (grid.placement or "") if grid else "",
         "skipped_tasks": _skipped_tasks(results.evaluation),
-        "features": _features(results.evaluation, shown),
-        "iso": _iso(results.evaluation, shown),
+        "features": _features(results.evaluation.s_model_features, shown),
+        "iso": _iso(_evaluated(results.evaluation.iso9283), shown),
         "diagnosis": _diagnosis(results.diagnosis, shown),
         "learned": _learned(results.residual_model, shown),
         "plots": _plots(results.diagnosis, plots),

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, TypeAdapter, field_validator, model_serializer, model_validator
 
 TASK_TITLES = {"grid_task": "Grid-touching task (Stone 7.2.1)", "iso9283": "ISO 9283 positional accuracy"}  # evaluation's tasks
 
@@ -447,6 +448,146 @@ class HistoryEntry(_Frozen):
     significant: list[ParameterChange]
 
 
+class _AsWritten(_Frozen):
+    """A block of the evaluation the run writes as it goes: only the keys it gave, in the order it gave them (an older
+    armcal's results lack some; the tasks the spec asks for stand in its order)."""
+
+    _keys: tuple[str, ...] = PrivateAttr(default=())
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _remember_keys(cls, data, handler):
+        made = handler(data)
+        if isinstance(data, dict):
+            made._keys = tuple(data)
+        return made
+
+    @model_serializer(mode="wrap")
+    def _given_keys(self, handler) -> dict:
+        out = handler(self)
+        return {key: out[key] for key in self._keys}
+
+
+def _finite_or_none(value: float | None) -> float | None:
+    """inf and nan as results.json holds them: null (a run's object and the one read back hold the same values)."""
+    return value if value is None or math.isfinite(value) else None
+
+
+class TaskSkipped(_Frozen):
+    skipped: str  # why the task the spec asks for was not evaluated
+
+
+class GridIndex(_Frozen):
+    """One index of the grid task: its design-model and calibrated-control values on the true robot (evaluate/grid.py)."""
+
+    index: str
+    unit: str
+    design: float
+    calibrated: float
+    improvement_factor: float | None  # |design| / |calibrated|; null: the calibrated value is 0
+
+    _finite_factor = field_validator("improvement_factor")(_finite_or_none)
+
+
+class IsoPose(_Frozen):
+    """AP at one of the cube's poses, design-model and calibrated control (evaluate/grid.py)."""
+
+    pose: str  # P1..P5
+    unit: str
+    design: float
+    calibrated: float
+    improvement_factor: float | None  # null: the calibrated AP is 0
+
+    _finite_factor = field_validator("improvement_factor")(_finite_or_none)
+
+
+class GridTaskResult(_AsWritten):
+    """Stone's grid task (7.2.1-7.2.3), design-model vs calibrated control."""
+
+    tool_centre_point: str | None = None  # absent in older results, as are the fields of its placement
+    task_frame: str | None = None
+    placement: str | None = None  # how the grid was placed (absent in older results)
+    scaled: bool | None = None  # false only at Table 7-1
+    scale: float | None = None  # 1: Table 7-1's 60 x 30 x 50 cm
+    centre: list[float] | None = None  # of its box in the robot base frame, in unit
+    unit: str | None = None
+    indices: list[GridIndex]
+
+
+class IsoCubeResult(_Frozen):
+    centre: list[float]
+    side: float
+    unit: str
+    placement: str
+
+
+class IsoTaskResult(_AsWritten):
+    """ISO 9283 positional accuracy AP at the cube's poses P1..P5."""
+
+    tool_centre_point: str
+    task_frame: str
+    cube: IsoCubeResult | None = None  # absent in results before armcal placed the cube
+    poses: list[IsoPose]
+
+
+class FeatureUnits(_Frozen):
+    length: str
+    angle: str
+
+
+class JointFeatures(_Frozen):
+    """One joint's features and their accuracy (Stone 6.11-6.13), in the spec's units."""
+
+    joint: int
+    radius: float
+    range_deg: float
+    normal_residual_std: float
+    radial_residual_std: float
+    plane_sigma: float
+    centre_sigma: float
+
+
+class PseudoDHRow(_Frozen):
+    joint: int
+    theta_offset: float
+    d: float
+    a: float
+    alpha: float
+
+
+class FeatureFit(_Frozen):
+    s_model_features: Stats
+    least_squares: Stats
+
+
+class FeatureResiduals(_AsWritten):
+    s_model_features: Stats
+    least_squares: Stats
+    validation: FeatureFit | None = None  # absent without validation data
+
+
+class FeaturesResult(_Frozen):
+    """Stone's feature method beside the least-squares fit (evaluate/features.py)."""
+
+    units: FeatureUnits
+    joints: list[JointFeatures]
+    pseudo_dh: list[PseudoDHRow]
+    residuals: FeatureResiduals
+
+
+class Evaluation(_AsWritten):
+    """The evaluation block: the feature method's figures (fit.method s_model_features) and the tasks the spec's
+    report asks for, each evaluated or skipped."""
+
+    s_model_features: FeaturesResult | None = None
+    grid_task: GridTaskResult | TaskSkipped | None = None
+    iso9283: IsoTaskResult | TaskSkipped | None = None
+
+    def tasks(self) -> list[tuple[str, GridTaskResult | IsoTaskResult | TaskSkipped]]:
+        """The tasks the spec asked for, in the order written."""
+        return [(key, getattr(self, key)) for key in self._keys if key in TASK_TITLES]
+
+
 class Results(_Frozen):
     armcal_version: str
     run_id: str | None = None  # the run's id, in every artifact of its output set (armcal/support/output_set.py)
@@ -461,7 +602,7 @@ class Results(_Frozen):
     residuals_3d: Residuals3D | None = None  # per pose, where the instrument measures points
     improvement_factor: ImprovementFactor
     diagnosis: Diagnosis
-    evaluation: dict
+    evaluation: Evaluation
     solver: Solver
     noise: NoiseEstimate | None = None  # where the spec asks for noise from the data
     noise_check: NoiseCheck
@@ -477,7 +618,6 @@ class Results(_Frozen):
     plausibility: Plausibility | None = None  # null: results of an older armcal
     residual_model: ResidualModelResult | None = None  # null: diagnose.residual_model is none (or no diagnosis ran)
 
-    _plain_evaluation = field_validator("evaluation")(as_written)
 
     @model_validator(mode="after")
     def _consistent(self) -> "Results":

@@ -60,13 +60,13 @@ def run_tasks(
     return results
 
 
-SCHEDULER_ADDRESS = re.compile(r"(?:(?:tcp|tls|ws|wss)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?):(\d{1,5})")
+SCHEDULER_ADDRESS = re.compile(r"(?:(?:tcp|tls|ws|wss)://)?(?:\[(?P<ipv6>[0-9A-Fa-f:.]+)\]|(?P<host>[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?)):(?P<port>\d{1,5})")
 
 
 def check_scheduler_address(scheduler: str) -> None:
     """A Dask scheduler address [protocol://]host:port, refused at once when it is not one."""
     match = SCHEDULER_ADDRESS.fullmatch(scheduler.strip())
-    if match is None or not 0 < int(match.group(1)) < 65536:
+    if match is None or not 0 < int(match["port"]) < 65536:
         raise UserError(f"--scheduler {scheduler!r} is not a scheduler address; give [tcp://]HOST:PORT, e.g. tcp://10.0.0.5:8786")
 
 
@@ -77,9 +77,8 @@ def _reachable(scheduler: str) -> None:
     """A user error at once when nothing accepts a connection at the scheduler's host and port (a refused port
     would otherwise keep the Dask client retrying until its timeout)."""
     match = SCHEDULER_ADDRESS.fullmatch(scheduler.strip())
-    host = match.group(0).rsplit(":", 1)[0].split("://")[-1].strip("[]")
     try:
-        socket.create_connection((host, int(match.group(1))), timeout=CONNECT_TIMEOUT).close()
+        socket.create_connection((match["ipv6"] or match["host"], int(match["port"])), timeout=CONNECT_TIMEOUT).close()
     except OSError as exc:
         raise UserError(f"cannot reach the Dask scheduler at {scheduler} ({exc.strerror or exc})") from None
 

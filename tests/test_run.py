@@ -224,11 +224,11 @@ def test_a_declared_effect_without_values_is_identified_from_zero(tmp_path):
 def test_evidence_and_plots(tmp_path):
     results = run(ROOT / "examples" / "hidden_harmonic" / "spec.yaml", tmp_path).results
     evidence = results.diagnosis.evidence
-    histogram = evidence["histogram"]
-    assert sum(histogram["counts"]) == results.residuals.calibration.after.n
-    assert sum(histogram["expected"]) == pytest.approx(sum(histogram["counts"]), rel=0.01)
-    joint2 = evidence["joints"][1]
-    assert "gear_harmonic.j2.h1" in joint2 and max(joint2["before"]) > 2 * max(joint2["after"])
+    histogram = evidence.histogram
+    assert sum(histogram.counts) == results.residuals.calibration.after.n
+    assert sum(histogram.expected) == pytest.approx(sum(histogram.counts), rel=0.01)
+    joint2 = evidence.joints[1]
+    assert list(joint2.series) == ["before", "after", "gear_harmonic.j2.h1"] and max(joint2.before) > 2 * max(joint2.after)
     for name in results.diagnosis.plots:
         text = (tmp_path / name).read_text()
         assert text.lstrip().startswith("<?xml") and "<svg" in text

@@ -68,7 +68,7 @@ def test_fit_series_c_validate_on_series_b(series_c_on_b):
     _check_noise(results, tmp_path / "out")
     _check_compensation(tmp_path, results)
     html = unescape((tmp_path / "out" / "certificate.html").read_text())
-    assert "torque of the robot's declared masses (robot.masses)" in html and "assumed" not in results.diagnosis.evidence["torque_masses"]
+    assert "torque of the robot's declared masses (robot.masses)" in html and "assumed" not in results.diagnosis.evidence.torque_masses
 
 
 def _poses(rows) -> np.ndarray:

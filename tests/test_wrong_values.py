@@ -79,6 +79,10 @@ def test_a_prismatic_joint_is_plotted_against_its_position_and_torques_say_their
     assert _joint_axis("prismatic", spec) == "joint position (cm)" and _joint_axis("revolute", spec) == "joint angle (deg)"
     results = _golden()
     results["diagnosis"]["plots"] = ["residual_vs_torque.svg"]
-    results["diagnosis"]["evidence"] = {"torque_masses": "5 kg at each link frame's origin beyond the joint (assumed: the spec declares no masses)"}
+    results["diagnosis"]["evidence"] = {
+        "unit": "mm", "joints": [], "torque_masses": "5 kg at each link frame's origin beyond the joint (assumed: the spec declares no masses)",
+        "gravity_torque": [], "keys": [], "magnitude": "RMS over each sample's readings",
+        "histogram": {"edges": [-1.0, 1.0], "counts": [1], "expected": [1.0], "noise_sigma": 0.5, "mean": 0.0, "std": 0.0},
+    }
     [plot] = certificate_context(Results.model_validate(results), {"residual_vs_torque.svg": "<svg/>"})["plots"]
     assert "assumed: the spec declares no masses" in plot["title"]

@@ -21,7 +21,7 @@ from armcal.support.output_set import output_set, run_id, stamp_svg
 from armcal.support.progress import stage
 from armcal.report.render import certificate_files, check_templates, template_folders
 from armcal.results.build import build_results
-from armcal.results.schema import Results
+from armcal.results.schema import Evidence, Results
 from armcal.results.calibrated import calibrated_text
 from armcal.results.campaign_block import campaign, certificate_unit
 from armcal.results.history import history_entries
@@ -86,7 +86,7 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
         tasks = evaluation_tasks(spec, kinematics, calibrated, truth)
     with stage("drawing the evidence"):
         found = evidence(loaded, kinematics, device, calibrated, calibration)
-        plots = {name: stamp_svg(svg, identifier) for name, svg in draw_plots(found, certificate_unit(spec)).items()}
+        plots = {name: stamp_svg(svg, identifier) for name, svg in draw_plots(Evidence.model_validate(found), certificate_unit(spec)).items()}
     validation_path = folder / spec.data.validation if spec.data.validation else None
     simulated = (truth is not None, validation_path is not None and find_truth(validation_path) is not None)
     step = (spec.simulate or Simulate()).time_step

@@ -288,7 +288,7 @@ def _skipped_tasks(evaluation: Evaluation) -> list[dict]:
 
 def _plots(diagnosis: Diagnosis, svgs: dict[str, str]) -> list[dict]:
     plots = []
-    masses = (diagnosis.evidence or {}).get("torque_masses")
+    masses = diagnosis.evidence.torque_masses if diagnosis.evidence else None
     for name in diagnosis.plots:
         if name in svgs:
             data = base64.b64encode(svgs[name].encode("utf-8")).decode("ascii")

@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from armcal.report.numbers import significant  # noqa: E402
+from armcal.results.schema import BinnedSeries, Evidence  # noqa: E402
 from armcal.support.units import LENGTH_UNITS, factor  # noqa: E402
 
 
@@ -40,69 +41,70 @@ def _panels(count: int):
 SPARSE = 5  # a bin with fewer samples than this is drawn open: its mean rests on a few samples
 
 
-def _series(axis, binned: dict) -> None:
+def _series(axis, binned: BinnedSeries) -> None:
     """Each series of a binned panel; 'before' only where the diagnosis changed something (else it hides under
     'final'); bins of fewer than SPARSE samples drawn open and grey, with their count."""
-    unchanged = binned.get("before") == binned.get("after")
-    for name, values in binned.items():
-        if name in ("x", "count", "joint") or (name == "before" and unchanged):
+    unchanged = binned.before == binned.after
+    centres = [math.nan if x is None else x for x in binned.x]  # null as results.json holds nan
+    for name, values in binned.series.items():
+        if name == "before" and unchanged:
             continue
         style = SERIES_STYLE.get(name, dict(lw=2))
         label = {"before": "before diagnosis", "after": "final" if not unchanged else "final (the diagnosis added nothing)"}.get(name, f"{name} (fitted)")
-        axis.plot(binned["x"], values, label=label, **style)
-    sparse = [i for i, n in enumerate(binned["count"]) if n < SPARSE]
+        axis.plot(centres, values, label=label, **style)
+    sparse = [i for i, n in enumerate(binned.count) if n < SPARSE]
     if sparse:
-        xs, ys = [binned["x"][i] for i in sparse], [binned["after"][i] for i in sparse]
+        xs, ys = [centres[i] for i in sparse], [binned.after[i] for i in sparse]
         axis.plot(xs, ys, ls="none", marker="o", ms=5, mfc="white", mec="0.5", label=f"bin of fewer than {SPARSE} samples (count beside)")
         for x, y, i in zip(xs, ys, sparse):
-            axis.annotate(str(binned["count"][i]), (x, y), textcoords="offset points", xytext=(3, 3), fontsize=5, color="0.4")
+            axis.annotate(str(binned.count[i]), (x, y), textcoords="offset points", xytext=(3, 3), fontsize=5, color="0.4")
     axis.axhline(0.0, color="0.8", lw=0.5)
 
 
-RESIDUAL_SERIES = ("before", "after")  # and each added effect's contribution: every series but x and count
-
-
-def in_unit(evidence: dict, unit: str) -> dict:
+def in_unit(evidence: Evidence, unit: str) -> Evidence:
     """The evidence with its residuals in ``unit`` where they are lengths (the certificate's one length unit)."""
-    if evidence["unit"] not in LENGTH_UNITS or unit == evidence["unit"]:
+    if evidence.unit not in LENGTH_UNITS or unit == evidence.unit:
         return evidence
-    k = factor("length", evidence["unit"]) / factor("length", unit)
-    scaled = lambda binned: {n: v if n in ("x", "count", "joint") else [k * e for e in v] for n, v in binned.items()}  # noqa: E731
-    out = {**evidence, "unit": unit}
-    out["joints"] = [scaled(b) for b in evidence["joints"]]
-    out["gravity_torque"] = [scaled(b) for b in evidence["gravity_torque"]]
-    for name in ("t", "temperature", "longitude"):
-        if name in evidence:
-            out[name] = scaled(evidence[name])
-    out["keys"] = [{**key, "rms_before": k * key["rms_before"], "rms_after": k * key["rms_after"]} for key in evidence["keys"]]
-    h = evidence["histogram"]
-    out["histogram"] = {**h, "edges": [k * e for e in h["edges"]], "noise_sigma": k * h["noise_sigma"], "mean": k * h["mean"], "std": k * h["std"]}
-    return out
+    k = factor("length", evidence.unit) / factor("length", unit)
+
+    def scaled(binned: BinnedSeries | None) -> BinnedSeries | None:  # x and count as they are
+        return None if binned is None else binned.model_copy(update={"series": {n: [k * e for e in v] for n, v in binned.series.items()}})
+
+    h = evidence.histogram
+    return evidence.model_copy(update={
+        "unit": unit,
+        "joints": [scaled(b) for b in evidence.joints],
+        "gravity_torque": [scaled(b) for b in evidence.gravity_torque],
+        "t": scaled(evidence.t),
+        "temperature": scaled(evidence.temperature),
+        "longitude": scaled(evidence.longitude),
+        "keys": [key.model_copy(update={"rms_before": k * key.rms_before, "rms_after": k * key.rms_after}) for key in evidence.keys],
+        "histogram": h.model_copy(update={"edges": [k * e for e in h.edges], "noise_sigma": k * h.noise_sigma, "mean": k * h.mean, "std": k * h.std}),
+    })
 
 
-def histogram(evidence: dict) -> str:
-    h = evidence["histogram"]
+def histogram(evidence: Evidence) -> str:
+    h = evidence.histogram
     figure, axis = plt.subplots(figsize=(4.5, 2.8))
-    centres = [(a + b) / 2 for a, b in zip(h["edges"][:-1], h["edges"][1:])]
-    width = h["edges"][1] - h["edges"][0]
-    axis.bar(centres, h["counts"], width=width, color="0.75", edgecolor="0.4", label="final residuals")
-    axis.plot(centres, h["expected"], color="black", lw=1.5, label=f"noise model, sigma {significant(h['noise_sigma'], 2)} {evidence['unit']}")
-    axis.set_xlabel(f"residual ({evidence['unit']})")
+    centres = [(a + b) / 2 for a, b in zip(h.edges[:-1], h.edges[1:])]
+    width = h.edges[1] - h.edges[0]
+    axis.bar(centres, h.counts, width=width, color="0.75", edgecolor="0.4", label="final residuals")
+    axis.plot(centres, h.expected, color="black", lw=1.5, label=f"noise model, sigma {significant(h.noise_sigma, 2)} {evidence.unit}")
+    axis.set_xlabel(f"residual ({evidence.unit})")
     axis.set_ylabel("count")
     axis.locator_params(axis="x", nbins=7)
     axis.legend(frameon=False, fontsize=6, loc="upper left")
     return svg(figure)
 
 
-def against(evidence: dict, section: str, xlabels: list[str]) -> str:
-    """Binned residuals against each joint's angle (position) or torque, one panel per joint."""
-    panels = evidence[section]
+def against(panels: list[BinnedSeries], unit: str, xlabels: list[str]) -> str:
+    """Binned residuals (in ``unit``) against each joint's angle (position) or torque, one panel per joint."""
     figure, axes = _panels(len(panels))
     for axis, binned, xlabel in zip(axes, panels, xlabels):
         _series(axis, binned)
-        axis.set_title(f"joint {binned['joint']}")
+        axis.set_title(f"joint {binned.joint}")
         axis.set_xlabel(xlabel)
-        axis.set_ylabel(f"|residual| ({evidence['unit']})")
+        axis.set_ylabel(f"|residual| ({unit})")
     entries = {}
     for axis in axes[: len(panels)]:
         for handle, label in zip(*axis.get_legend_handles_labels()):
@@ -111,40 +113,41 @@ def against(evidence: dict, section: str, xlabels: list[str]) -> str:
     return svg(figure)
 
 
-def over(evidence: dict, name: str, xlabel: str) -> str:
+def over(binned: BinnedSeries, unit: str, xlabel: str) -> str:
     figure, axis = plt.subplots(figsize=(4.5, 2.5))
-    _series(axis, evidence[name])
+    _series(axis, binned)
     axis.set_xlabel(xlabel)
-    axis.set_ylabel(f"|residual| ({evidence['unit']})")
+    axis.set_ylabel(f"|residual| ({unit})")
     axis.legend(frameon=False, fontsize=6)
     return svg(figure)
 
 
-def per_key(evidence: dict) -> str:
-    keys = evidence["keys"]
+def per_key(evidence: Evidence) -> str:
+    keys = evidence.keys
     figure, axis = plt.subplots(figsize=(max(3.0, 0.45 * len(keys) + 1.5), 2.6))
     positions = range(len(keys))
-    axis.bar([p - 0.2 for p in positions], [k["rms_before"] for k in keys], width=0.4, color="0.7", label="design model")
-    axis.bar([p + 0.2 for p in positions], [k["rms_after"] for k in keys], width=0.4, color="0.2", label="calibrated")
-    axis.set_xticks(list(positions), [k["key"] for k in keys], rotation=45, ha="right")
-    axis.set_ylabel(f"RMS ({evidence['unit']})")
+    axis.bar([p - 0.2 for p in positions], [k.rms_before for k in keys], width=0.4, color="0.7", label="design model")
+    axis.bar([p + 0.2 for p in positions], [k.rms_after for k in keys], width=0.4, color="0.2", label="calibrated")
+    axis.set_xticks(list(positions), [k.key for k in keys], rotation=45, ha="right")
+    axis.set_ylabel(f"RMS ({evidence.unit})")
     axis.legend(frameon=False, fontsize=6)
     return svg(figure)
 
 
 @plt.rc_context(STYLE)
-def draw_plots(evidence: dict, unit: str) -> dict[str, str]:
+def draw_plots(evidence: Evidence, unit: str) -> dict[str, str]:
     """Every plot the evidence supports, residual lengths in ``unit``: file name -> SVG text."""
     evidence = in_unit(evidence, unit)
     plots = {
         "residual_histogram.svg": histogram(evidence),
-        "residual_vs_joint.svg": against(evidence, "joints", evidence["joint_axes"]),
+        "residual_vs_joint.svg": against(evidence.joints, evidence.unit, evidence.joint_axes),
         "residual_per_key.svg": per_key(evidence),
     }
-    if evidence["gravity_torque"]:
-        torque = ["gravity torque (N m)"] * len(evidence["gravity_torque"])  # from the masses the caption names
-        plots["residual_vs_torque.svg"] = against(evidence, "gravity_torque", torque)
-    for name, label in (("t", "time (s)"), ("temperature", "temperature (degC)"), ("longitude", "longitude on the shell (deg)")):
-        if name in evidence:
-            plots[f"residual_vs_{name}.svg"] = over(evidence, name, label)
+    if evidence.gravity_torque:
+        torque = ["gravity torque (N m)"] * len(evidence.gravity_torque)  # from the masses the caption names
+        plots["residual_vs_torque.svg"] = against(evidence.gravity_torque, evidence.unit, torque)
+    for name, binned, label in (("t", evidence.t, "time (s)"), ("temperature", evidence.temperature, "temperature (degC)"),
+                                ("longitude", evidence.longitude, "longitude on the shell (deg)")):
+        if binned is not None:
+            plots[f"residual_vs_{name}.svg"] = over(binned, evidence.unit, label)
     return plots

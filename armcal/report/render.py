@@ -267,6 +267,6 @@ def rerender(results_path: Path, pdf: bool = True, force: bool = False, history:
         raise UserError(f"{folder / existing[0]} exists; use --force to replace the certificate")
     try:
         context = certificate_context(results, plots)
-    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:  # in its free-form block (diagnosis.evidence)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:  # what validation lets through, the certificate cannot show
         raise UserError(f"{results_path}: not a results.json as armcal writes it ({type(exc).__name__}: {exc})") from None
     return replace_in_set(folder, render_certificate(context, template_folders(None), pdf, results.created))

@@ -6,7 +6,7 @@ import math
 import re
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, TypeAdapter, field_validator, model_serializer, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_serializer, model_validator
 
 TASK_TITLES = {"grid_task": "Grid-touching task (Stone 7.2.1)", "iso9283": "ISO 9283 positional accuracy"}  # evaluation's tasks
 
@@ -20,13 +20,24 @@ class _Frozen(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
-_FREE_FORM = TypeAdapter(dict)
+class _AsWritten(_Frozen):
+    """A block the run writes as it goes: only the keys it gave, in the order it gave them (an older armcal's results
+    lack some; the evaluation's tasks stand in the spec's order)."""
 
+    _keys: tuple[str, ...] = PrivateAttr(default=())
 
-def as_written(block: dict | None) -> dict | None:
-    """A free-form block as results.json holds it (lists, plain numbers, null for inf and nan): the object a run hands
-    the report and the one read back from the file hold the same values."""
-    return None if block is None else _FREE_FORM.dump_python(block, mode="json")
+    @model_validator(mode="wrap")
+    @classmethod
+    def _remember_keys(cls, data, handler):
+        made = handler(data)
+        if isinstance(data, dict):
+            made._keys = tuple(data)
+        return made
+
+    @model_serializer(mode="wrap")
+    def _given_keys(self, handler) -> dict:
+        out = handler(self)
+        return {key: out[key] for key in self._keys}
 
 
 class GitInfo(_Frozen):
@@ -215,16 +226,117 @@ class Round(_Frozen):
     rms_after: RMSPair
 
 
+def _finite_or_none(value: float | None) -> float | None:
+    """inf and nan as results.json holds them: null (a run's object and the one read back hold the same values)."""
+    return value if value is None or math.isfinite(value) else None
+
+
+BINNED_FIELDS = ("joint", "x", "count")  # a binned series' keys in results.json that are not series
+
+
+class BinnedSeries(_AsWritten):
+    """Each sample's residual magnitude (the evidence's unit) averaged in equal-width bins of x, empty bins left out
+    (evaluate/evidence.py); x is a joint's angle or position (spec units), the gravity torque about it (N m), time (s),
+    temperature (degC) or the longitude around a ball-bar's pivot (deg). `series` holds before (the fit before the diagnosis), after (final) and the predicted
+    contribution of each effect the diagnosis added, keyed by the effect's id, in the run's order. results.json holds
+    them inline, between x and count; they are read into one dict[str, list[float]] and written back where they stood
+    (not extra="allow", whose values would go untyped and be written after the fields): the file reads and writes
+    back byte for byte."""
+
+    joint: int | None = None  # 1-based, in the panels of joints and gravity_torque; absent over t, temperature, longitude
+    x: list[float | None]  # bin centres; null where the values binned are not all numbers (a scale bar's readings have no joint values)
+    series: dict[str, list[float]]  # one mean per bin
+    count: list[int]  # samples in each bin
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _remember_keys(cls, data, handler):
+        """The series results.json holds inline gathered into `series`, the order of the keys kept."""
+        if not isinstance(data, dict):
+            return handler(data)
+        if isinstance(data.get("series"), dict):  # built with its fields: joint (if given), x, the series, count
+            made = handler(data)
+            made._keys = (*(["joint"] if made.joint is not None else []), "x", *made.series, "count")
+            return made
+        fields = {key: value for key, value in data.items() if key in BINNED_FIELDS}
+        made = handler({**fields, "series": {key: value for key, value in data.items() if key not in BINNED_FIELDS}})
+        made._keys = tuple(data)
+        return made
+
+    @field_validator("x")
+    @classmethod
+    def _finite_x(cls, x: list[float | None]) -> list[float | None]:
+        return [_finite_or_none(v) for v in x]
+
+    @model_validator(mode="after")
+    def _bins_line_up(self) -> "BinnedSeries":
+        if not {"before", "after"} <= set(self.series):
+            raise ValueError("a binned series lacks its before or its after series")
+        if any(len(values) != len(self.x) for values in (self.count, *self.series.values())):
+            raise ValueError("a binned series' count or one of its series is not as long as its x")
+        return self
+
+    @model_serializer(mode="wrap")
+    def _given_keys(self, handler) -> dict:
+        out = handler(self)
+        inline = {**out, **out.pop("series")}
+        return {key: inline[key] for key in self._keys}
+
+    @property
+    def before(self) -> list[float]:
+        return self.series["before"]
+
+    @property
+    def after(self) -> list[float]:
+        return self.series["after"]
+
+
+class KeyRMS(_Frozen):
+    """The residuals' RMS at one key (target, pivot pairing, station; its parts joined by '/'), in the evidence's unit."""
+
+    key: str
+    n: int  # readings
+    rms_before: float  # the design model's
+    rms_after: float  # calibrated
+
+
+class ResidualHistogram(_Frozen):
+    """The final signed residuals' counts beside those the noise model's Gaussian (mean 0, sigma noise_sigma) expects
+    (Goswami Figs. 3-4); lengths in the evidence's unit."""
+
+    edges: list[float]  # one more than counts
+    counts: list[int]
+    expected: list[float]
+    noise_sigma: float  # RMS of the readings' sigmas
+    mean: float
+    std: float
+
+
+class Evidence(_AsWritten):
+    """Where the residuals come from, before and after the diagnosis (evaluate/evidence.py), the data of the plots.
+    unit is the instrument's residual unit (device.unit: mm, arcsec, ...); every residual below is in it."""
+
+    unit: str
+    joints: list[BinnedSeries]  # against each joint's angle or position
+    joint_axes: list[str] | None = None  # each joint's x label, e.g. "joint angle (deg)"; absent in older results
+    torque_masses: str | None = None  # the masses gravity_torque is from; absent in older results
+    gravity_torque: list[BinnedSeries]  # against the gravity torque about each joint that carries one
+    keys: list[KeyRMS]
+    magnitude: str  # what a sample's residual magnitude is: "RMS over each sample's readings"
+    histogram: ResidualHistogram
+    t: BinnedSeries | None = None  # against time, where the data have a t column
+    temperature: BinnedSeries | None = None  # where the data have a temperature column
+    longitude: BinnedSeries | None = None  # along the shells' longitudes around a ball-bar's pivot (Goswami Fig. 3)
+
+
 class Diagnosis(_Frozen):
     rounds: list[Round]
     added_effects: list[EffectResult]
     unexplained: bool
     chosen_on: str | None = None  # the data that judged the candidates (diagnose.holdout)
     alpha: float | None = None  # family-wise level of a round's score tests (Holm); absent in older results
-    evidence: dict | None = None
+    evidence: Evidence | None = None  # null: none drawn (armcal run draws it on every run)
     plots: list[str] = []
-
-    _plain_evidence = field_validator("evidence")(as_written)
 
 
 class CoordinateRMS(_Frozen):
@@ -446,31 +558,6 @@ class HistoryEntry(_Frozen):
     rms_validation: float | None
     compared: int  # parameters compared
     significant: list[ParameterChange]
-
-
-class _AsWritten(_Frozen):
-    """A block of the evaluation the run writes as it goes: only the keys it gave, in the order it gave them (an older
-    armcal's results lack some; the tasks the spec asks for stand in its order)."""
-
-    _keys: tuple[str, ...] = PrivateAttr(default=())
-
-    @model_validator(mode="wrap")
-    @classmethod
-    def _remember_keys(cls, data, handler):
-        made = handler(data)
-        if isinstance(data, dict):
-            made._keys = tuple(data)
-        return made
-
-    @model_serializer(mode="wrap")
-    def _given_keys(self, handler) -> dict:
-        out = handler(self)
-        return {key: out[key] for key in self._keys}
-
-
-def _finite_or_none(value: float | None) -> float | None:
-    """inf and nan as results.json holds them: null (a run's object and the one read back hold the same values)."""
-    return value if value is None or math.isfinite(value) else None
 
 
 class TaskSkipped(_Frozen):

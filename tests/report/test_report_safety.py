@@ -18,7 +18,7 @@ from armcal.report.context import certificate_context
 from armcal.report.plots import draw_plots
 from armcal.report.pdf import TemplateFetcher
 from armcal.report.render import PACKAGED, TEMPLATE, certificate_files, render_html
-from armcal.results.schema import Results
+from armcal.results.schema import Evidence, Results
 
 GOLDEN = TESTS / "data" / "golden"
 OUTSIDE = Path("/etc/hostname")  # any readable file outside the folders
@@ -190,14 +190,15 @@ def test_two_runs_of_one_spec_give_the_same_artifacts_but_the_creation_time(exam
     assert json.loads((one / "results.json").read_text())["spec"]["path"] == str(example.resolve())
 
 
-EVIDENCE = {
+EVIDENCE = Evidence.model_validate({
     "unit": "mm",
-    "histogram": {"edges": [-1.0, 0.0, 1.0], "counts": [3, 5], "expected": [4.0, 4.0], "noise_sigma": 0.5},
-    "joints": [{"joint": 1, "x": [0.0, 90.0], "count": [4, 4], "before": [1.0, 2.0], "after": [0.5, 0.4]}],
+    "joints": [{"joint": 1, "x": [0.0, 90.0], "before": [1.0, 2.0], "after": [0.5, 0.4], "count": [4, 4]}],
     "joint_axes": ["joint angle (deg)"],
-    "keys": [{"key": "sphere1", "rms_before": 1.0, "rms_after": 0.5}],
     "gravity_torque": [],
-}
+    "keys": [{"key": "sphere1", "n": 8, "rms_before": 1.0, "rms_after": 0.5}],
+    "magnitude": "RMS over each sample's readings",
+    "histogram": {"edges": [-1.0, 0.0, 1.0], "counts": [3, 5], "expected": [4.0, 4.0], "noise_sigma": 0.5, "mean": 0.1, "std": 0.4},
+})
 
 
 def test_drawing_plots_twice_gives_the_same_svg_and_leaves_rcparams_alone():

@@ -24,7 +24,7 @@ import numpy as np
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key, held_in_contact
 from armcal.effects.measurement import EffectSet, extras_matrix
-from armcal.identify.compiled import compiled
+from armcal.identify.compiled import compiled, current
 from armcal.identify.threads import each, share
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
@@ -118,6 +118,7 @@ class KeyBlock:
         self._q = np.ascontiguousarray(Q, dtype=float)  # row k: column k of a mapped call's Q input (column-major)
         self._x = np.ascontiguousarray(X, dtype=float)
         self._theta = np.zeros((min(CHUNK, len(Q)), function.size1_in(2)))  # row k: theta of a call's sample k
+        self._evaluated = function  # what this evaluation calls: the function or its compiled twin (compiled.current)
         self._calls: dict[tuple[int, int], tuple] = {}  # (share, samples in a call) -> (buffer, run, values, jacobian)
         values, jacobian = function.sparsity_out(0), function.sparsity_out(1)
         self._value_rows = np.array(values.get_triplet()[0], dtype=int)
@@ -135,7 +136,7 @@ class KeyBlock:
         """This share's buffer of a call over ``count`` samples (made once; its chunks of that length share it)."""
         key = (share(), count)
         if key not in self._calls:
-            mapped = self._function.map(count)
+            mapped = self._evaluated.map(count)
             buffer, run = mapped.buffer()
             values, jacobian = np.zeros(mapped.nnz_out(0)), np.zeros(mapped.nnz_out(1))
             buffer.set_arg(2, memoryview(self._theta[:count].reshape(-1)))
@@ -147,6 +148,9 @@ class KeyBlock:
     def weighted(self, theta: np.ndarray, position: np.ndarray, r: np.ndarray, J: np.ndarray, start: int) -> None:
         """Write the block's weighted residuals into r[start:start + size] and their Jacobian into the same rows of J;
         ``position[j]`` is theta's j-th parameter's column of J (-1: not wanted)."""
+        evaluated = current(self._function)  # its library once built in the background, the same for the whole call
+        if evaluated is not self._evaluated:
+            self._evaluated, self._calls = evaluated, {}
         self._theta[:] = theta
         taken = position[self._jacobian_columns] >= 0
         wanted = []  # per channel: its nonzeros of one sample that J wants, and their columns

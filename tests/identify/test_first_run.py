@@ -142,6 +142,23 @@ def test_a_cold_start_does_not_wait_for_the_compiler(private, capsys, monkeypatc
     assert cpu < 0.2 * waited, (cpu, wall, waited)  # the compile's CPU time is not the caller's
 
 
+def test_a_first_run_goes_on_in_machine_code_once_its_library_lands(private, monkeypatch):
+    """Background: a problem is evaluated by the virtual machine until the detached builder has put its library in
+    place, then by the library, with the numbers of the virtual machine to rounding (as in the test above)."""
+    folder, log = private
+    monkeypatch.setenv("ARMCAL_COMPILE", "background")
+    problem, start = problem_of(ROOT / "examples" / "theodolite" / "spec.yaml")
+    interpreted = problem.evaluate(start)
+    assert "External" not in {block._evaluated.class_name() for block in problem.blocks}
+    wait_for_builds(folder)
+    assert compiles(log) == 1
+    time.sleep(cache.CHECK)  # the next look for the library is due
+    machine_code = problem.evaluate(start)
+    assert {block._evaluated.class_name() for block in problem.blocks} == {"External"}
+    for a, b in zip(interpreted, machine_code):
+        assert np.abs(a - b).max() < 1e-9 * max(1.0, np.abs(a).max())
+
+
 def test_two_cold_processes_compile_once_and_leave_only_the_library(private, monkeypatch):
     """Two builders of one library: the second waits for the first's lock and finds its library; no leftovers."""
     folder, log = private

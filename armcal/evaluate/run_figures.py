@@ -42,7 +42,7 @@ def reported_names(calibration: Calibration) -> set[str]:
 
 
 def run_figures(
-    loaded: LoadedSpec, calibration: Calibration, device: DeviceModel, raw_rows: np.ndarray, tasks: dict, evidence: dict, plots: list[str], measured: dict
+    loaded: LoadedSpec, calibration: Calibration, device: DeviceModel, raw_rows: np.ndarray, tasks: dict, evidence: dict | None, plots: list[str], measured: dict
 ) -> dict:
     """The figures results.json reports, by its keys; ``parameters`` as the fitted entries, values and standard
     deviations (internal units) with the base set and the held parameters' reasons; ``device``: the instrument's model."""

@@ -52,7 +52,7 @@ def calibrate(spec_path):
     calibration = device.prepare(raw)
     validation = device.prepare(read_measurements(spec_path.parent / spec.data.validation, spec))
     calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
-    results = build_results(loaded, run_figures(loaded, calibrated, device, calibration.rows, {}, {}, [], campaign(loaded, calibration, validation, (False, False))))
+    results = build_results(loaded, run_figures(loaded, calibrated, device, calibration.rows, {}, None, [], campaign(loaded, calibration, validation, (False, False))))
     out = spec_path.parent / "out"
     out.mkdir()
     (out / "calibrated.yaml").write_text(calibrated_text(loaded, results, calibrated, out)[0])

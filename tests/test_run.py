@@ -1,5 +1,6 @@
 """`armcal run` end to end on the shipped examples, per the output contract."""
 
+import csv
 import json
 import math
 import re
@@ -35,9 +36,27 @@ def test_run_writes_the_contract(tmp_path, name):
         assert set(stats) == {"n", "rms", "mean", "std", "max_abs"}
     assert set(data["diagnosis"]) >= {"rounds", "added_effects", "unexplained"}
     assert data["improvement_factor"]["calibration"] > 5
+    posed = _rows_with_a_pose(ROOT / "examples" / name / "calibration.csv")
+    for panel in data["diagnosis"]["evidence"]["joints"]:  # the samples with a pose, binned along each joint
+        assert sum(panel["count"]) == posed and all(math.isfinite(x) for x in panel["x"]), (name, panel["joint"])
     calibrated = load_spec(tmp_path / "calibrated.yaml")  # a valid spec, ready to commit
     assert calibrated.spec.robot.serial == data["robot"]["serial"]
     _check_certificate(tmp_path, data)
+
+
+def _rows_with_a_pose(path) -> int:
+    """Rows of a data file whose joint columns (q1, q2, ...) all hold numbers (a theodolite's scale-bar rows hold none)."""
+    with open(path, newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    joints = [column for column in rows[0] if re.fullmatch(r"q\d+", column)]
+    return sum(all(_number(row[q]) for q in joints) for row in rows)
+
+
+def _number(text: str) -> bool:
+    try:
+        return math.isfinite(float(text))
+    except ValueError:
+        return False
 
 
 E_NOTATION = re.compile(r"(?<![0-9a-fA-F.])\d+(?:\.\d+)?[eE][-+]?\d+(?![0-9a-fA-F])")  # not inside a hex hash

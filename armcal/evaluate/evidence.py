@@ -25,7 +25,12 @@ BINS = 18
 
 
 def _binned(x: np.ndarray, values: dict[str, np.ndarray], bins: int = BINS) -> dict:
-    """Mean of each series in equal-width bins of x (empty bins left out)."""
+    """Mean of each series in equal-width bins of x (empty bins left out, and the samples without an x: a theodolite's
+    scale-bar readings are taken at no pose of the robot)."""
+    known = np.isfinite(x)
+    x, values = x[known], {name: series[known] for name, series in values.items()}
+    if not len(x):
+        return {"x": [], **{name: [] for name in values}, "count": []}
     edges = np.linspace(np.min(x), np.max(x), bins + 1)
     which = np.clip(np.digitize(x, edges) - 1, 0, bins - 1)
     out: dict = {"x": [], **{name: [] for name in values}, "count": []}
@@ -66,6 +71,9 @@ def evidence(loaded, kinematics, device, calibration, data) -> dict:
         series[effect.id] = magnitude(to_unit(contribution[chosen] * sigma))
     q = data.q[samples]
     torque = np.array(gravity_torque_function(kinematics).map(len(q))(np.nan_to_num(q).T, final[: problem.n_robot])).T
+    posed = np.isfinite(q).all(axis=1)
+    torque[~posed] = np.nan  # no pose, no torque
+    spread = np.ptp(torque[posed], axis=0) if posed.any() else np.zeros(kinematics.dof)
     block = {
         "unit": unit,
         "joints": [{"joint": j + 1, **_binned(q[:, j] / factor(joint_kind(kind), spec.robot.units.of(joint_kind(kind))), series)}
@@ -76,7 +84,7 @@ def evidence(loaded, kinematics, device, calibration, data) -> dict:
         "gravity_torque": [
             {"joint": j + 1, **_binned(torque[:, j], series)}
             for j in range(kinematics.dof)
-            if np.ptp(torque[:, j]) > 0.01 * np.max(np.ptp(torque, axis=0))  # a vertical axis carries no gravity torque
+            if spread[j] > 0.01 * np.max(spread)  # a vertical axis carries no gravity torque
         ],
         "keys": _per_key(residuals, chosen, design, after),
         "magnitude": "RMS over each sample's readings",

@@ -244,7 +244,7 @@ class BinnedSeries(_AsWritten):
     back byte for byte."""
 
     joint: int | None = None  # 1-based, in the panels of joints and gravity_torque; absent over t, temperature, longitude
-    x: list[float | None]  # bin centres; null where the values binned are not all numbers (a scale bar's readings have no joint values)
+    x: list[float | None]  # bin centres; null only in older results, which binned a scale bar's readings (no pose) at nan
     series: dict[str, list[float]]  # one mean per bin
     count: list[int]  # samples in each bin
 

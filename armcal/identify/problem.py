@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass, replace
+from weakref import WeakKeyDictionary
 
 import casadi as ca
 import numpy as np
@@ -94,6 +95,7 @@ class ChannelRows:
 
 
 CHUNK = 256  # samples per mapped call: its buffers stay cache-sized and small whatever the size of the data
+_CALLS: WeakKeyDictionary = WeakKeyDictionary()  # function -> {(share, samples in a call): (buffer, run, thetas, values, jacobian)}
 
 
 class KeyBlock:
@@ -108,18 +110,18 @@ class KeyBlock:
     them); the Jacobian's nonzeros of sample k are the k-th run of the per-sample
     pattern (the mapped output is the samples' Jacobians side by side), so no dense
     copy of the mapped output is ever made. Each share of the chunks has its own buffers; the
-    chunks write disjoint rows, so the numbers are the same as one thread's, bit for bit. A
-    block (and its with_weights copies, which share its buffers) is evaluated by one caller at
-    a time.
+    chunks write disjoint rows, so the numbers are the same as one thread's, bit for bit. The
+    mapped calls and their buffers belong to the function (_CALLS), shared by every block of it
+    (the diagnosis's folds: one map, not one per problem), so the blocks of a function are
+    evaluated by one caller at a time.
     """
 
     def __init__(self, function: ca.Function, Q: np.ndarray, X: np.ndarray, channels: list[ChannelRows]):
         self._function = function
         self._q = np.ascontiguousarray(Q, dtype=float)  # row k: column k of a mapped call's Q input (column-major)
         self._x = np.ascontiguousarray(X, dtype=float)
-        self._theta = np.zeros((min(CHUNK, len(Q)), function.size1_in(2)))  # row k: theta of a call's sample k
         self._evaluated = function  # what this evaluation calls: the function or its compiled twin (compiled.current)
-        self._calls: dict[tuple[int, int], tuple] = {}  # (share, samples in a call) -> (buffer, run, values, jacobian)
+        self._calls = _CALLS.setdefault(function, {})  # its mapped calls, shared by the blocks of the function (_mapped)
         values, jacobian = function.sparsity_out(0), function.sparsity_out(1)
         self._value_rows = np.array(values.get_triplet()[0], dtype=int)
         self._n_out = values.size1()
@@ -132,26 +134,30 @@ class KeyBlock:
         """Residuals of the block."""
         return sum(len(c.rows) for c in self.channels)
 
-    def _mapped(self, count: int) -> tuple:
-        """This share's buffer of a call over ``count`` samples (made once; its chunks of that length share it)."""
-        key = (share(), count)
-        if key not in self._calls:
+    def _mapped(self, count: int, theta: np.ndarray) -> tuple:
+        """This share's call of the function over ``count`` samples at ``theta``: its buffer, run, values and
+        Jacobians (made once per function, share and length: _CALLS)."""
+        calls, key = self._calls, (share(), count)
+        if key not in calls:
             mapped = self._evaluated.map(count)
             buffer, run = mapped.buffer()
+            thetas = np.zeros((count, self._function.size1_in(2)))  # row k: theta of the call's sample k
             values, jacobian = np.zeros(mapped.nnz_out(0)), np.zeros(mapped.nnz_out(1))
-            buffer.set_arg(2, memoryview(self._theta[:count].reshape(-1)))
+            buffer.set_arg(2, memoryview(thetas.reshape(-1)))
             buffer.set_res(0, memoryview(values))
             buffer.set_res(1, memoryview(jacobian))
-            self._calls[key] = (buffer, run, values, jacobian)
-        return self._calls[key]
+            calls[key] = (buffer, run, thetas, values, jacobian)
+        buffer, run, thetas, values, jacobian = calls[key]
+        if not np.array_equal(thetas[0], theta):  # every row is written at once: the first says whether they hold theta
+            thetas[:] = theta
+        return buffer, run, values, jacobian
 
     def weighted(self, theta: np.ndarray, position: np.ndarray, r: np.ndarray, J: np.ndarray, start: int) -> None:
         """Write the block's weighted residuals into r[start:start + size] and their Jacobian into the same rows of J;
         ``position[j]`` is theta's j-th parameter's column of J (-1: not wanted)."""
         evaluated = current(self._function)  # its library once built in the background, the same for the whole call
         if evaluated is not self._evaluated:
-            self._evaluated, self._calls = evaluated, {}
-        self._theta[:] = theta
+            self._evaluated, self._calls = evaluated, _CALLS.setdefault(evaluated, {})
         taken = position[self._jacobian_columns] >= 0
         wanted = []  # per channel: its nonzeros of one sample that J wants, and their columns
         for c in self.channels:
@@ -161,7 +167,7 @@ class KeyBlock:
         chunk = self._complete_chunk if complete else self._chunk
         if complete:  # every channel reads every sample: the block's residuals are a (channels, samples) array
             wanted = (wanted, self._complete(r[start : start + self.size]))
-        each(lambda first: chunk(first, wanted, r, J, start), range(0, len(self._q), CHUNK))  # rows of its own each
+        each(lambda first: chunk(first, theta, wanted, r, J, start), range(0, len(self._q), CHUNK))  # rows of its own each
 
     def _complete(self, r: np.ndarray) -> tuple:
         """What a chunk of a block whose channels read every sample needs: its residuals as (channels, samples), the
@@ -171,10 +177,10 @@ class KeyBlock:
         angles = np.array([c.angle for c in self.channels])
         return r.reshape(len(self.channels), len(self._q)), [c.channel for c in self.channels], measured, weight, angles
 
-    def _called(self, first: int) -> tuple[int, np.ndarray, np.ndarray]:
-        """One mapped call over the samples first .. first + CHUNK: its last sample, readings and Jacobians."""
+    def _called(self, first: int, theta: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+        """One mapped call over the samples first .. first + CHUNK at ``theta``: its last sample, readings and Jacobians."""
         last = min(first + CHUNK, len(self._q))
-        buffer, run, values, jacobian = self._mapped(last - first)
+        buffer, run, values, jacobian = self._mapped(last - first, theta)
         buffer.set_arg(0, memoryview(self._q[first:last].reshape(-1)))
         buffer.set_arg(1, memoryview(self._x[first:last].reshape(-1)))
         run()
@@ -182,11 +188,11 @@ class KeyBlock:
         predicted[:, self._value_rows] = values.reshape(last - first, -1)
         return last, predicted, jacobian.reshape(last - first, -1)
 
-    def _complete_chunk(self, first: int, wanted: tuple, r: np.ndarray, J: np.ndarray, start: int) -> None:
+    def _complete_chunk(self, first: int, theta: np.ndarray, wanted: tuple, r: np.ndarray, J: np.ndarray, start: int) -> None:
         """A chunk of a block whose channels read every sample: the residuals of all channels at once (the same
         numbers as _chunk's, in a few calls, so a thread holds Python's lock briefly)."""
         (per_channel, (residuals, channels, measured, weight, angles)), n = wanted, len(self._q)
-        last, predicted, per_sample = self._called(first)
+        last, predicted, per_sample = self._called(first, theta)
         difference = predicted[:, channels] - measured[first:last]
         if angles.any():
             wrapped = difference[:, angles]
@@ -197,9 +203,9 @@ class KeyBlock:
             if len(nonzeros):
                 J[start + k * n + first : start + k * n + last, target] = per_sample[:, nonzeros] * w[:, k, None]
 
-    def _chunk(self, first: int, wanted: list, r: np.ndarray, J: np.ndarray, start: int) -> None:
+    def _chunk(self, first: int, theta: np.ndarray, wanted: list, r: np.ndarray, J: np.ndarray, start: int) -> None:
         """The samples first .. first + CHUNK: one mapped call, weighted into their rows of r and J."""
-        last, predicted, per_sample = self._called(first)
+        last, predicted, per_sample = self._called(first, theta)
         row = start
         for c, (nonzeros, target) in zip(self.channels, wanted):
             low, high = np.searchsorted(c.rows, (first, last))
@@ -304,6 +310,30 @@ def build_problem(
         measured=np.concatenate(measured),
     )
     return Problem(parameters, len(kinematics.parameters), tuple(blocks), residual, design)
+
+
+def rows_within(part: Problem, samples: np.ndarray, whole: Problem) -> np.ndarray:
+    """The rows of ``whole``'s residuals that are ``part``'s, in ``part``'s order, where ``part``'s data are the samples
+    ``samples`` of ``whole``'s (a fold's): the same reading (key, channel) of the same sample."""
+    pairs: dict[tuple, int] = {}
+    span = int(whole.residuals.sample.max()) + 2  # sample + 1 of any reading is below it
+    sample = part.residuals.sample
+    wanted = _readings(part, pairs) * span + np.where(sample >= 0, samples[np.maximum(sample, 0)], -1) + 1
+    found = _readings(whole, pairs) * span + whole.residuals.sample + 1
+    order = np.argsort(found, kind="stable")
+    return order[np.searchsorted(found[order], wanted)]
+
+
+def _readings(problem: Problem, pairs: dict[tuple, int]) -> np.ndarray:
+    """Each residual's reading (key, channel) as its number in ``pairs`` (numbered here when new): one per channel
+    of a block, whose residuals are consecutive."""
+    numbers, lengths, row = [], [], 0
+    for block in problem.blocks:
+        for c in block.channels:
+            numbers.append(pairs.setdefault((problem.residuals.key[row], problem.residuals.channel[row]), len(pairs)))
+            lengths.append(len(c.rows))
+            row += len(c.rows)
+    return np.repeat(np.array(numbers, dtype=np.int64), lengths)
 
 
 def _held_by_nominal(function: ca.Function, Q: np.ndarray, X: np.ndarray, measured: np.ndarray, theta: np.ndarray, limits: np.ndarray) -> np.ndarray:

@@ -4,7 +4,9 @@ All candidates live in one problem with their parameters fixed at zero; adding
 one frees its parameters. The base set is decided once, at the design point (the
 start of the first fit): a candidate's parameters join it only where the geometry
 cannot absorb them there (identifiability.extend), and every refit and k-fold fold
-keeps that set.
+keeps that set. No point is evaluated twice: a trial's fit starts with the score
+tests' residuals and Jacobian, each fold's fit with its rows of the full fit's at its
+solution (FitResult.at_solution); the folds' problems are built once per way of folding.
 
 A round ranks the candidates significant after Holm's correction by strength (the
 -log p-value of their score statistic, which compares statistics of different
@@ -36,10 +38,10 @@ from armcal.diagnose.candidates import candidates
 from armcal.diagnose.score import Test, holm, score_tests
 from armcal.effects.library import EffectSpec
 from armcal.effects.measurement import EffectSet
-from armcal.identify.fit import FitResult, fit
+from armcal.identify.fit import FitResult, fit, fit_theta
 from armcal.identify.heldout import held_out
-from armcal.identify.identifiability import Identifiability, analyse, extend
-from armcal.identify.problem import Problem, build_problem
+from armcal.identify.identifiability import Identifiability, analyse, extend, triangular
+from armcal.identify.problem import Problem, build_problem, rows_within
 from armcal.identify.uncertainty import NOISE_CHECK_LEVEL
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
@@ -99,6 +101,7 @@ class Context:
         self.kinematics, self.device, self.calibration = kinematics, device, calibration
         self.effects, self.fit_settings, self.settings = effects, fit_settings, settings
         self.functions = {}  # the keys' compiled functions, shared by every problem of the diagnosis (build_problem)
+        self._built = {}  # along -> its folds' samples and problems (_fold_problems)
         self.validation = None
         if validation is not None:
             self.validation = held_out(kinematics, device, validation, effects, instrument_moved)
@@ -111,37 +114,54 @@ class Context:
             self.folds[joint + 1] = contiguous_folds(poses[:, joint], folds)
 
     def held_out_errors(
-        self, problem: Problem, theta: np.ndarray, free: set[str], identifiability: Identifiability, along: int | None = None
+        self, problem: Problem, result: FitResult, free: set[str], along: int | None = None
     ) -> np.ndarray:
         """Each held-out pose's sum of squared weighted residuals: of the validation set's samples, or of the
-        calibration poses, each predicted by a fit (on the full fit's base set) of the folds without it. ``along``
-        a joint, each fold is a contiguous range of that joint's values (EffectSpec.followed_joint)."""
+        calibration poses, each predicted by a fit (on the full fit's base set) of the folds without it. ``result``:
+        the fit of ``problem``. ``along`` a joint, each fold is a contiguous range of that joint's values
+        (EffectSpec.followed_joint)."""
+        theta = result.theta
         if self.judge == "validation":
             r, _ = self.validation.evaluate(theta)
             return np.bincount(self.validation.residuals.sample[self.validation.residuals.sample >= 0], r[self.validation.residuals.sample >= 0] ** 2)
         errors = np.zeros(self.pose.max() + 1)
-        for fold in self.fold_fits(problem, theta, free, identifiability, along):
-            r, _ = fold.test.evaluate(fold.theta)
+        for fold in self.fold_fits(problem, theta, free, result.identifiability, along, result.at_solution):
+            r, _ = fold.test.evaluate(fold.theta, columns=np.arange(0))
             sample = fold.test.residuals.sample
             np.add.at(errors, self.pose[fold.rows[sample[sample >= 0]]], r[sample >= 0] ** 2)
         return errors
 
     def fold_fits(
-        self, problem: Problem, theta: np.ndarray, free: set[str], identifiability: Identifiability, along: int | None = None
+        self, problem: Problem, theta: np.ndarray, free: set[str], identifiability: Identifiability, along: int | None = None,
+        at: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> Iterator[FoldFit]:
         """The k-fold fits of the calibration poses, fold by fold: the problems of the folds without it (training) and of
         the fold (test), and the fit of the training folds from ``theta`` on the full fit's base set. ``along`` a joint,
-        each fold is a contiguous range of that joint's values (EffectSpec.followed_joint). The effects' held-out errors and the
-        learned residual model's (residual_model.py) come from these same fits."""
-        fold = self.folds[along][self.pose]
-        for k in range(self.settings.folds):
-            rows, train_rows = np.flatnonzero(fold == k), np.flatnonzero(fold != k)
-            train = self._problem(self.calibration.subset(train_rows), problem, free)
-            test = self._problem(self.calibration.subset(rows), problem, free)
-            yield FoldFit(rows, train_rows, train, test, fit(train, self.fit_settings, start=theta, identifiability=identifiability).theta)
+        each fold is a contiguous range of that joint's values (EffectSpec.followed_joint). ``at``: ``problem``'s (r, J
+        over the base columns) at ``theta`` (FitResult.at_solution), whose rows start each training fit instead of
+        an evaluation. The effects' held-out errors and the learned residual model's (residual_model.py) come from
+        these same fits."""
+        for rows, train_rows, train, test, within in self._fold_problems(along, problem):
+            train, test = self._like(train, problem, free), self._like(test, problem, free)
+            initial = None if at is None else (at[0][within], np.asfortranarray(at[1][within]))
+            yield FoldFit(rows, train_rows, train, test, fit_theta(train, self.fit_settings, theta, identifiability, initial))
 
-    def _problem(self, data: Measurements, like: Problem, free: set[str]) -> Problem:
-        problem = build_problem(self.kinematics, self.device, data, self.effects, functions=self.functions)
+    def _fold_problems(self, along: int | None, whole: Problem) -> list[tuple[np.ndarray, np.ndarray, Problem, Problem, np.ndarray]]:
+        """Each fold's calibration samples and those of the others, their problems, and the rows of ``whole`` (a
+        problem of all the calibration data) that the training problem's are (built once per ``along``)."""
+        if along not in self._built:
+            fold = self.folds[along][self.pose]
+            self._built[along] = []
+            for k in range(self.settings.folds):
+                rows, train_rows = np.flatnonzero(fold == k), np.flatnonzero(fold != k)
+                train, test = (build_problem(self.kinematics, self.device, self.calibration.subset(r), self.effects, functions=self.functions)
+                               for r in (train_rows, rows))
+                self._built[along].append((rows, train_rows, train, test, rows_within(train, train_rows, whole)))
+        return self._built[along]
+
+    @staticmethod
+    def _like(problem: Problem, like: Problem, free: set[str]) -> Problem:
+        """``problem`` with the parameters of ``like``, the ``free`` ones freed."""
         return with_free(replace(problem, parameters=like.parameters), free) if free else replace(problem, parameters=like.parameters)
 
 
@@ -200,10 +220,12 @@ def run_diagnosis(
         theta0[: len(start)] = start
     J_design = problem.design_jacobian(theta0)
     design = analyse(J_design, problem.parameters, problem.parameters.free)
+    R_design = triangular(J_design)  # what extend needs of J_design (J^T J = R^T R), once for every trial
     result = fit(problem, fit_settings, start=theta0, identifiability=design)
     rounds, added, remaining = [], [], list(pool)
     for _ in range(settings.max_rounds):
-        tests = _tests(problem, result, remaining, settings.alpha)
+        r, J = problem.evaluate(result.theta)  # of every column: the score tests', and where each trial's fit starts
+        tests = _tests(problem, r, J, result, remaining, settings.alpha)
         significant = sorted((t for t in tests if t.significant), key=strength, reverse=True)
         if not significant:
             rounds.append(Round(tests, None, result.theta, result.theta, "no candidate is significant"))
@@ -214,12 +236,13 @@ def run_diagnosis(
         for test in significant[:MAX_TRIALS]:
             names = [p.name for p in test.effect.parameters()]
             trial_problem = with_free(problem, set(names))
-            trial_base = extend(result.identifiability, J_design, problem.parameters, names)
-            trial = fit(trial_problem, fit_settings, start=result.theta, identifiability=trial_base)
+            trial_base = extend(result.identifiability, R_design, problem.parameters, names)
+            initial = (r, np.asfortranarray(J[:, [problem.parameters.index(n) for n in trial_base.base]]))
+            trial = fit(trial_problem, fit_settings, result.theta, trial_base, initial)
             along = test.effect.followed_joint
             if along not in before:
-                before[along] = context.held_out_errors(problem, result.theta, set(), result.identifiability, along)
-            ok, z = holds_out(before[along], context.held_out_errors(trial_problem, trial.theta, set(names), trial_base, along))
+                before[along] = context.held_out_errors(problem, result, set(), along)
+            ok, z = holds_out(before[along], context.held_out_errors(trial_problem, trial, set(names), along))
             tried.append(f"{test.effect.id} (held-out change {z:+.1f} standard errors)")
             if ok:
                 accepted = (test, trial_problem, trial)
@@ -238,15 +261,15 @@ def run_diagnosis(
         remaining = [c for c in remaining if c.id != test.effect.id]
     else:
         if rounds and rounds[-1].accepted is not None:  # the round limit: one more look at what the last refit left
-            _mark_partly_explained(rounds, [t for t in _tests(problem, result, remaining, settings.alpha) if t.significant], result)
+            r, J = problem.evaluate(result.theta)
+            _mark_partly_explained(rounds, [t for t in _tests(problem, r, J, result, remaining, settings.alpha) if t.significant], result)
     unexplained = result.uncertainty.p_value < NOISE_CHECK_LEVEL
     validation_problem = replace(context.validation, parameters=problem.parameters) if context.validation else None
     return Diagnosis(rounds, added, list(declared) + added, unexplained, problem, validation_problem, result, context.judge, context)
 
 
-def _tests(problem: Problem, result: FitResult, remaining: list[EffectSpec], alpha: float) -> list[Test]:
-    """Score tests of the remaining candidates at the fit, Holm-corrected."""
-    r, J = problem.evaluate(result.theta)
+def _tests(problem: Problem, r: np.ndarray, J: np.ndarray, result: FitResult, remaining: list[EffectSpec], alpha: float) -> list[Test]:
+    """Score tests of the remaining candidates at the fit, Holm-corrected; (r, J): ``problem``'s at it, every column."""
     columns = [J[:, [problem.parameters.index(p.name) for p in c.parameters()]] for c in remaining]
     return holm(score_tests(r, J[:, result.base], columns, remaining), alpha)
 

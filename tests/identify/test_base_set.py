@@ -191,12 +191,13 @@ def test_kfold_folds_keep_the_full_fits_base_set(tmp_path, monkeypatch):
     calls = []
     real_fit = loop.fit
 
-    def spy(problem, settings, start=None, identifiability=None):
-        result = real_fit(problem, settings, start=start, identifiability=identifiability)
+    def spy(problem, settings, start=None, identifiability=None, initial=None):
+        result = real_fit(problem, settings, start, identifiability, initial)
         calls.append((len(problem.residuals.sample), identifiability.base if identifiability else None, result))
         return result
 
     monkeypatch.setattr(loop, "fit", spy)
+    monkeypatch.setattr(loop, "fit_theta", lambda *arguments: spy(*arguments).theta)  # a fold's fit, seen whole
     results = run(tmp_path / "spec.yaml", tmp_path / "out", pdf=False).results
     full = max(n for n, _, _ in calls)
     trials = {base for n, base, _ in calls if n == full}

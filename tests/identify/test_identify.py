@@ -8,7 +8,7 @@ from identify_helpers import measure, restricted, setup, truth
 
 from armcal.identify.fit import fit
 from armcal.identify.identifiability import analyse
-from armcal.identify.problem import build_problem
+from armcal.identify.problem import build_problem, rows_within
 from armcal.spec import load_spec
 from armcal.spec.sections import Fit
 
@@ -126,6 +126,23 @@ def test_robust_loss_lists_gross_errors_and_keeps_the_fit():
     assert error(plain) > 3.0 and error(robust) < 3.0
     flagged = set(problem.residuals.sample[robust.outliers])
     assert set(bad) <= flagged and len(flagged) < 2 * len(bad)
+
+
+@pytest.mark.parametrize("loss", ["linear", "huber"])
+def test_a_fold_fit_started_from_the_full_fits_rows_is_the_fit_that_evaluates_its_start(loss):
+    """rows_within finds a fold's readings among the full problem's: started from those rows of the full fit's (r, J)
+    (FitResult.at_solution), the fold's fit is the one that evaluates them, bit for bit."""
+    s = setup(SPECS / "puma560_six.yaml")
+    rng = np.random.default_rng(5)
+    data = measure(s.kinematics, s.device, s.plans[0], truth(s, rng), rng)
+    full = fit(build_problem(s.kinematics, s.device, data), Fit(loss=loss))
+    samples = np.flatnonzero(np.arange(len(data)) % 5 != 2)
+    fold = build_problem(s.kinematics, s.device, data.subset(samples))
+    rows = rows_within(fold, samples, build_problem(s.kinematics, s.device, data))
+    r, J = full.at_solution
+    started = fit(fold, Fit(loss=loss), full.theta, full.identifiability, (r[rows], np.asfortranarray(J[rows])))
+    evaluated = fit(fold, Fit(loss=loss), full.theta, full.identifiability)
+    assert started.solver.iterations > 0 and np.array_equal(started.theta, evaluated.theta)
 
 
 def test_compiled_functions_are_cached_and_equal_the_interpreted_ones(tmp_path, monkeypatch):

@@ -6,7 +6,8 @@ start of the first fit): a candidate's parameters join it only where the geometr
 cannot absorb them there (identifiability.extend), and every refit and k-fold fold
 keeps that set. No point is evaluated twice: a trial's fit starts with the score
 tests' residuals and Jacobian, each fold's fit with its rows of the full fit's at its
-solution (FitResult.at_solution); the folds' problems are built once per way of folding.
+solution (FitResult.at_solution); the folds' problems are built once per way of folding,
+and the held-out errors of an accepted effect are the next round's before its trials.
 
 A round ranks the candidates significant after Holm's correction by strength (the
 -log p-value of their score statistic, which compares statistics of different
@@ -223,6 +224,7 @@ def run_diagnosis(
     R_design = triangular(J_design)  # what extend needs of J_design (J^T J = R^T R), once for every trial
     result = fit(problem, fit_settings, start=theta0, identifiability=design)
     rounds, added, remaining = [], [], list(pool)
+    before: dict[int | None, np.ndarray] = {}  # the model's held-out errors, by the joint its folds follow
     for _ in range(settings.max_rounds):
         r, J = problem.evaluate(result.theta)  # of every column: the score tests', and where each trial's fit starts
         tests = _tests(problem, r, J, result, remaining, settings.alpha)
@@ -231,7 +233,6 @@ def run_diagnosis(
             rounds.append(Round(tests, None, result.theta, result.theta, "no candidate is significant"))
             break
         _mark_partly_explained(rounds, significant, result)
-        before: dict[int | None, np.ndarray] = {}
         accepted, tried = None, []
         for test in significant[:MAX_TRIALS]:
             names = [p.name for p in test.effect.parameters()]
@@ -242,15 +243,16 @@ def run_diagnosis(
             along = test.effect.followed_joint
             if along not in before:
                 before[along] = context.held_out_errors(problem, result, set(), along)
-            ok, z = holds_out(before[along], context.held_out_errors(trial_problem, trial, set(names), along))
+            after = context.held_out_errors(trial_problem, trial, set(names), along)
+            ok, z = holds_out(before[along], after)
             tried.append(f"{test.effect.id} (held-out change {z:+.1f} standard errors)")
             if ok:
-                accepted = (test, trial_problem, trial)
+                accepted = (test, trial_problem, trial, {along: after})  # the next round's model: its errors so folded
                 break
         if accepted is None:
             rounds.append(Round(tests, None, result.theta, result.theta, f"nothing held out: {'; '.join(tried)}"))
             break
-        test, trial_problem, trial = accepted
+        test, trial_problem, trial, before = accepted
         top = strength(test)
         rivals = [t.effect.id for t in significant if t is not test and strength(t) >= RIVAL * top]
         note = f"{test.effect.id} added" + (f" after {'; '.join(tried[:-1])}" if len(tried) > 1 else "")

@@ -102,7 +102,26 @@ def test_a_block_whose_channels_read_every_sample_gives_the_per_channel_numbers(
     assert all(len(c.rows) == len(b._q) for b in problem.blocks for c in b.channels)  # every block takes the first
     theta = problem.parameters.nominal + 1e-4 * np.random.default_rng(4).standard_normal(len(problem.parameters.names))
     r1, J1 = problem.evaluate(theta)
-    per_channel = lambda block, first, wanted, r, J, start: KeyBlock._chunk(block, first, wanted[0], r, J, start)  # noqa: E731
+    per_channel = lambda block, first, theta, wanted, r, J, start: KeyBlock._chunk(block, first, theta, wanted[0], r, J, start)  # noqa: E731
     monkeypatch.setattr(KeyBlock, "_complete_chunk", per_channel)
     r2, J2 = problem.evaluate(theta)
     assert np.array_equal(r1, r2) and np.array_equal(J1, J2)
+
+
+def test_problems_of_one_function_share_its_calls_and_keep_their_own_numbers():
+    """Two problems of the same compiled functions (a diagnosis's folds) share the mapped calls (KeyBlock._mapped):
+    evaluated in turn at different points, each gives the numbers it gives alone."""
+    s = setup(SPECS / "puma560_theodolite.yaml", [("count: 150\n  seed: 3", "count: 600\n  seed: 3")])
+    data = measure(s.kinematics, s.device, s.plans[0], None, None)
+    functions = {}
+    subset = data.subset(np.arange(0, len(data), 3))
+    whole = build_problem(s.kinematics, s.device, data, functions=functions)
+    part = build_problem(s.kinematics, s.device, subset, functions=functions)
+    assert part.blocks[0]._calls is whole.blocks[0]._calls
+    rng = np.random.default_rng(6)
+    near = [whole.parameters.nominal + 1e-4 * rng.standard_normal(len(whole.parameters.names)) for _ in range(2)]
+    alone = [build_problem(s.kinematics, s.device, d).evaluate(theta) for d, theta in ((data, near[0]), (subset, near[1]))]  # calls of their own
+    for _ in range(2):
+        for problem, theta, (r, J) in zip((whole, part), near, alone):
+            r_here, J_here = problem.evaluate(theta)
+            assert np.array_equal(r, r_here) and np.array_equal(J, J_here)

@@ -16,6 +16,7 @@ Parameter values and sigmas never enter the function either, so its compiled lib
 from __future__ import annotations
 
 import copy
+import threading
 from dataclasses import dataclass, replace
 from weakref import WeakKeyDictionary
 
@@ -26,7 +27,7 @@ from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key, held_in_contact
 from armcal.effects.measurement import EffectSet, extras_matrix
 from armcal.identify.compiled import compiled, current
-from armcal.identify.threads import each, share
+from armcal.identify.threads import each
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet
 from armcal.model.measurement import measurement_function
@@ -95,7 +96,7 @@ class ChannelRows:
 
 
 CHUNK = 256  # samples per mapped call: its buffers stay cache-sized and small whatever the size of the data
-_CALLS: WeakKeyDictionary = WeakKeyDictionary()  # function -> {(share, samples in a call): (buffer, run, thetas, values, jacobian)}
+_CALLS: WeakKeyDictionary = WeakKeyDictionary()  # function -> {(thread, samples in a call): (buffer, run, thetas, values, jacobian)}
 
 
 class KeyBlock:
@@ -109,11 +110,11 @@ class KeyBlock:
     CasADi's function buffer (converting CasADi matrices costs more than evaluating
     them); the Jacobian's nonzeros of sample k are the k-th run of the per-sample
     pattern (the mapped output is the samples' Jacobians side by side), so no dense
-    copy of the mapped output is ever made. Each share of the chunks has its own buffers; the
-    chunks write disjoint rows, so the numbers are the same as one thread's, bit for bit. The
-    mapped calls and their buffers belong to the function (_CALLS), shared by every block of it
-    (the diagnosis's folds: one map, not one per problem), so the blocks of a function are
-    evaluated by one caller at a time.
+    copy of the mapped output is ever made. The mapped calls and their buffers belong to the
+    function (_CALLS), shared by every block of it (the diagnosis's folds, a study's robots: one
+    map, not one per problem), one set per thread: the chunks' threads, and callers' threads
+    evaluating blocks of one function at once (a Dask worker's tasks), never share a buffer. The
+    chunks write disjoint rows, so the numbers are the same as one thread's, bit for bit.
     """
 
     def __init__(self, function: ca.Function, Q: np.ndarray, X: np.ndarray, channels: list[ChannelRows]):
@@ -135,9 +136,9 @@ class KeyBlock:
         return sum(len(c.rows) for c in self.channels)
 
     def _mapped(self, count: int, theta: np.ndarray) -> tuple:
-        """This share's call of the function over ``count`` samples at ``theta``: its buffer, run, values and
-        Jacobians (made once per function, share and length: _CALLS)."""
-        calls, key = self._calls, (share(), count)
+        """This thread's call of the function over ``count`` samples at ``theta``: its buffer, run, values and
+        Jacobians (made once per function, thread and length: _CALLS)."""
+        calls, key = self._calls, (threading.get_ident(), count)  # a thread's own: any callers' threads at once
         if key not in calls:
             mapped = self._evaluated.map(count)
             buffer, run = mapped.buffer()

@@ -3,7 +3,9 @@ thread and on four, bit for bit (what is cut into items does not depend on the t
 numpy's J^T J; an exception in an item is raised; a forked child still evaluates."""
 
 import multiprocessing
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -125,3 +127,23 @@ def test_problems_of_one_function_share_its_calls_and_keep_their_own_numbers():
         for problem, theta, (r, J) in zip((whole, part), near, alone):
             r_here, J_here = problem.evaluate(theta)
             assert np.array_equal(r, r_here) and np.array_equal(J, J_here)
+
+
+def test_problems_of_one_function_evaluated_by_two_callers_at_once_keep_their_own_numbers():
+    """Two callers' threads (a Dask worker's tasks of one study share its compiled functions) evaluating problems of
+    the same functions at the same time, at different points: each gives the numbers it gives alone, bit for bit."""
+    s = setup(SPECS / "puma560_theodolite.yaml", [("count: 150\n  seed: 3", "count: 600\n  seed: 3")])
+    data = measure(s.kinematics, s.device, s.plans[0], None, None)
+    functions = {}
+    problems = [build_problem(s.kinematics, s.device, data.subset(np.arange(k, len(data), 2)), functions=functions) for k in (0, 1)]
+    rng = np.random.default_rng(7)
+    near = [problems[0].parameters.nominal + 1e-4 * rng.standard_normal(len(problems[0].parameters.names)) for _ in problems]
+    alone = [problem.evaluate(theta) for problem, theta in zip(problems, near)]
+    start = threading.Barrier(2)
+
+    def evaluated(k: int) -> bool:
+        start.wait()
+        return all(all(np.array_equal(a, b) for a, b in zip(alone[k], problems[k].evaluate(near[k]))) for _ in range(40))
+
+    with ThreadPoolExecutor(2) as callers:
+        assert all(callers.map(evaluated, (0, 1)))

@@ -49,10 +49,13 @@ class Calibration:
     residual_validation: Figures | None = None  # the validation data without and with it (the final figures)
 
 
-def calibration_problem(spec: Spec, kinematics: KinematicModel, device: DeviceModel, calibration: Measurements) -> tuple[Problem, np.ndarray]:
-    """The calibration data's problem with the spec's declared effects, and where the fit starts."""
+def calibration_problem(
+    spec: Spec, kinematics: KinematicModel, device: DeviceModel, calibration: Measurements, functions: dict | None = None
+) -> tuple[Problem, np.ndarray]:
+    """The calibration data's problem with the spec's declared effects, and where the fit starts; ``functions``: the
+    compiled functions of this model from earlier problems (build_problem)."""
     effects = EffectSet(tuple(from_spec(e) for e in spec.effects))
-    problem = build_problem(kinematics, device, calibration, effects)
+    problem = build_problem(kinematics, device, calibration, effects, functions=functions)
     free = int(problem.parameters.free.sum())
     readings, distinct = len(problem.residuals.sample), distinct_readings(problem, calibration)
     if distinct <= free:

@@ -71,6 +71,7 @@ class RobotStudy:
             raise UserError(f"{grid_unreachable(kinematics, kinematics.parameters.nominal, measured_point(spec))}; a Monte-Carlo study needs it")
         self.control, self.grid = solved
         self.design = None  # the base set, decided at the first robot's start and kept for the others
+        self.functions = {}  # the model's compiled functions, derived once for every robot (build_problem)
 
     def robot(self, seed: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray, bool]:
         """Grid indices (34,) under design-model and calibrated control of the robot of ``seed``, and convergence."""
@@ -89,15 +90,16 @@ class RobotStudy:
         if self.spec.fit.method == "s_model_features":
             theta, _ = feature_parameters(self.spec, self.fit_device.prepare(raw), combined_parameters(kinematics, self.fit_device))
             return theta, True
-        result = identify_simulated(self.spec, kinematics, self.fit_device, raw, self.design)
+        result = identify_simulated(self.spec, kinematics, self.fit_device, raw, self.design, self.functions)
         self.design = result.identifiability  # the study's base set: every robot is measured at the same poses
         return result.theta, bool(result.solver.converged)
 
 
-def identify_simulated(spec: Spec, kinematics, fit_device, raw, design=None) -> FitResult:
+def identify_simulated(spec: Spec, kinematics, fit_device, raw, design=None, functions: dict | None = None) -> FitResult:
     """Levenberg-Marquardt on simulated readings ``raw`` with the spec's declared effects, from the same start
-    as `armcal run` (no diagnosis); ``design``: the base set to keep (None: decided at the start)."""
-    problem, start = calibration_problem(spec, kinematics, fit_device, fit_device.prepare(raw))
+    as `armcal run` (no diagnosis); ``design``: the base set to keep (None: decided at the start); ``functions``: the
+    model's compiled functions from the study's earlier robots (build_problem)."""
+    problem, start = calibration_problem(spec, kinematics, fit_device, fit_device.prepare(raw), functions)
     return fit(problem, spec.fit, start=start, identifiability=design)
 
 

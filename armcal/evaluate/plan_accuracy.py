@@ -64,6 +64,7 @@ class PlanStudy:
         self.simulator = CampaignSimulator(spec, spec_dir, validation=False, calibration=False)
         self.kinematics = self.simulator.kinematics
         self.device = device_model(spec)
+        self._functions = {}  # the model's compiled functions, derived once for every robot and design (build_problem)
         fresh = ps.candidate_poses(spec, self.kinematics, self.device, candidates, seed)
         self.fresh_dropped = fresh.dropped
         if not len(fresh):
@@ -129,11 +130,11 @@ class PlanStudy:
         plans = {"calibration": self.designs.plan(rows), "validation": self.held_out}
         campaign = self.simulator.run(seed, plans, exact=("validation",))
         try:
-            result = identify_simulated(self.spec, self.kinematics, self.device, campaign.calibration)
+            result = identify_simulated(self.spec, self.kinematics, self.device, campaign.calibration, functions=self._functions)
         except UserError:
             return float("nan")
         truth = self.device.prepare(campaign.validation)
-        problem = build_problem(self.kinematics, self.device, truth, self.effects)
+        problem = build_problem(self.kinematics, self.device, truth, self.effects, functions=self._functions)
         r, _ = problem.evaluate(result.theta)
         residuals = problem.residuals
         length = np.array([k == self.information.metric for k in residuals.kind]) & (residuals.sample >= 0)

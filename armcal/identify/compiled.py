@@ -18,8 +18,8 @@ When the library is not built yet, $ARMCAL_COMPILE says what to do:
   virtual machine at once (the same numbers to rounding) and leave the compile to a
   detached process (builder.py), so the first run pays no compile and later runs
   load the library. A long first run goes on in machine code once the library has
-  landed (``current``): the real UR10's first closed loop took 49 s in the virtual
-  machine alone, against 10 s warm and 16 s compiling first;
+  landed (``current``): the real UR10's first closed loop took 76 s of CPU in the
+  virtual machine alone, 11-13 s so;
 - ``off``: never compile (the virtual machine only).
 
 Loading a library runs its code, so the cache is private: its folder is made 0700,
@@ -43,6 +43,7 @@ import sys
 import tempfile
 import threading
 import time
+import weakref
 from pathlib import Path
 
 import casadi as ca
@@ -112,46 +113,42 @@ CHECK = 0.5  # s between two looks for a library being built in the background (
 
 
 def current(function: ca.Function) -> ca.Function:
-    """``function``, or its compiled twin once the background builder has put the library in place: what an
-    evaluation about to start should call (the same numbers to rounding, as the module docstring says)."""
-    awaited = _awaiting.get(id(function))
-    return function if awaited is None else awaited.twin(function)
+    """``function``, or its compiled twin once the background builder has put its library in place."""
+    awaited = _awaiting.get(function)
+    return function if awaited is None else awaited[0].twin(awaited[1], function)
 
 
 class _Awaited:
-    """Functions evaluated by the virtual machine while their library is built in the background."""
+    """A library built in the background for functions the virtual machine evaluates meanwhile (by name: the
+    functions are _awaiting's weak keys)."""
 
-    def __init__(self, functions: list[ca.Function], names: list[str], library: Path):
-        self.functions, self.names, self.library = functions, names, library
-        self.loaded: list[ca.Function] | None = None
+    def __init__(self, names: list[str], library: Path):
+        self.names, self.library = names, library
+        self.loaded: list[ca.Function] | None = None  # [] when the library cannot be loaded
         self.next_look = 0.0
         self.lock = threading.Lock()
 
-    def twin(self, function: ca.Function) -> ca.Function:
+    def twin(self, index: int, function: ca.Function) -> ca.Function:
         with self.lock:
             if self.loaded is None and time.monotonic() >= self.next_look:
                 self.next_look = time.monotonic() + CHECK
                 if builder.intact(self.library):
-                    self.loaded = _loaded(self.library, self.names)
-            if self.loaded is None:
-                return function
-            return self.loaded[next(i for i, f in enumerate(self.functions) if f is function)]
+                    try:
+                        self.loaded = _loaded(self.library, self.names)
+                    except RuntimeError:  # e.g. a cache on a noexec mount: the run goes on as it started
+                        self.loaded = []
+                        _say_once("armcal: the compiled functions cannot be loaded; evaluating with CasADi's virtual machine")
+            return self.loaded[index] if self.loaded else function
 
 
 def _awaited(functions: list[ca.Function], names: list[str], library: Path) -> None:
-    """Remember ``functions`` as awaiting ``library`` (the newest AWAITED sets of a process; older ones stay in the
-    virtual machine)."""
-    awaited = _Awaited(functions, names, library)
-    for function in functions:
-        _awaiting[id(function)] = awaited
-    while len({id(a) for a in _awaiting.values()}) > AWAITED:
-        oldest = next(iter(_awaiting.values()))
-        for function in oldest.functions:
-            _awaiting.pop(id(function), None)
+    """Remember each of ``functions`` as awaiting ``library``, for as long as it lives."""
+    awaited = _Awaited(names, library)
+    for index, function in enumerate(functions):
+        _awaiting[function] = (awaited, index)
 
 
-AWAITED = 64
-_awaiting: dict[int, _Awaited] = {}  # id of a function handed out -> its set (which holds it, so the id stays its own)
+_awaiting: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # a function handed out -> (its library's _Awaited, index)
 
 
 def _loaded(library: Path, names: list[str]) -> list[ca.Function]:

@@ -16,6 +16,7 @@ Parameter values and sigmas never enter the function either, so its compiled lib
 from __future__ import annotations
 
 import copy
+import os
 import threading
 from dataclasses import dataclass, replace
 from weakref import WeakKeyDictionary
@@ -97,6 +98,7 @@ class ChannelRows:
 
 CHUNK = 256  # samples per mapped call: its buffers stay cache-sized and small whatever the size of the data
 _CALLS: WeakKeyDictionary = WeakKeyDictionary()  # function -> {(thread, samples in a call): (buffer, run, thetas, values, jacobian)}
+os.register_at_fork(after_in_child=_CALLS.clear)  # a forked child's threads are new: none owns a buffer
 
 
 class KeyBlock:
@@ -149,8 +151,7 @@ class KeyBlock:
             buffer.set_res(1, memoryview(jacobian))
             calls[key] = (buffer, run, thetas, values, jacobian)
         buffer, run, thetas, values, jacobian = calls[key]
-        if not np.array_equal(thetas[0], theta):  # every row is written at once: the first says whether they hold theta
-            thetas[:] = theta
+        thetas[:] = theta
         return buffer, run, values, jacobian
 
     def weighted(self, theta: np.ndarray, position: np.ndarray, r: np.ndarray, J: np.ndarray, start: int) -> None:

@@ -159,6 +159,27 @@ def test_a_first_run_goes_on_in_machine_code_once_its_library_lands(private, mon
         assert np.abs(a - b).max() < 1e-9 * max(1.0, np.abs(a).max())
 
 
+def test_a_landed_library_that_cannot_be_loaded_leaves_the_run_in_the_virtual_machine(private, monkeypatch, capsys):
+    """Background: a library that is in place but refuses to load (a cache on a noexec mount) does not stop the run:
+    it goes on as it started, and says so once."""
+    folder, _ = private
+    monkeypatch.setenv("ARMCAL_COMPILE", "background")
+    problem, start = problem_of(ROOT / "examples" / "theodolite" / "spec.yaml")
+    interpreted = problem.evaluate(start)
+    wait_for_builds(folder)
+
+    def refused(library, names):
+        raise RuntimeError(f"Cannot load shared library '{library}'")
+
+    monkeypatch.setattr(cache, "_loaded", refused)
+    time.sleep(cache.CHECK)
+    for _ in range(2):
+        again = problem.evaluate(start)
+        assert "External" not in {block._evaluated.class_name() for block in problem.blocks}
+        assert all(np.array_equal(a, b) for a, b in zip(interpreted, again))
+    assert capsys.readouterr().err.count("cannot be loaded") == 1
+
+
 def test_two_cold_processes_compile_once_and_leave_only_the_library(private, monkeypatch):
     """Two builders of one library: the second waits for the first's lock and finds its library; no leftovers."""
     folder, log = private

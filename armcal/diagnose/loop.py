@@ -102,7 +102,7 @@ class Context:
         self.kinematics, self.device, self.calibration = kinematics, device, calibration
         self.effects, self.fit_settings, self.settings = effects, fit_settings, settings
         self.functions = {}  # the keys' compiled functions, shared by every problem of the diagnosis (build_problem)
-        self._built = {}  # along -> its folds' samples and problems (_fold_problems)
+        self._built = {}  # the last along asked for -> its folds' samples and problems (_fold_problems)
         self.validation = None
         if validation is not None:
             self.validation = held_out(kinematics, device, validation, effects, instrument_moved)
@@ -149,15 +149,17 @@ class Context:
 
     def _fold_problems(self, along: int | None, whole: Problem) -> list[tuple[np.ndarray, np.ndarray, Problem, Problem, np.ndarray]]:
         """Each fold's calibration samples and those of the others, their problems, and the rows of ``whole`` (a
-        problem of all the calibration data) that the training problem's are (built once per ``along``)."""
+        problem of all the calibration data) that the training problem's are; kept for the last ``along`` asked for
+        only (they hold about the data twice over per way of folding; building them again costs milliseconds)."""
         if along not in self._built:
             fold = self.folds[along][self.pose]
-            self._built[along] = []
+            built = []
             for k in range(self.settings.folds):
                 rows, train_rows = np.flatnonzero(fold == k), np.flatnonzero(fold != k)
                 train, test = (build_problem(self.kinematics, self.device, self.calibration.subset(r), self.effects, functions=self.functions)
                                for r in (train_rows, rows))
-                self._built[along].append((rows, train_rows, train, test, rows_within(train, train_rows, whole)))
+                built.append((rows, train_rows, train, test, rows_within(train, train_rows, whole)))
+            self._built = {along: built}
         return self._built[along]
 
     @staticmethod

@@ -2,8 +2,10 @@
 
 Function.map makes one Function of N copies; building it costs time in proportion to N, and reading its results
 back as CasADi matrices costs more than the evaluation of a compiled function. So the mappings are made once per
-size, for chunks of a power of two points (at most CHUNK; the last point repeated up to the size), and evaluated
-through CasADi's FunctionBuffer, which reads and writes numpy memory in place: the same arithmetic, the same numbers.
+size, for chunks of a power of two points (at most CHUNK): N points are the chunks of N's binary digits, so no point
+is evaluated twice (padding each call up to the next power of two cost up to twice the evaluations; a solver's
+calls shrink as its points converge). They are evaluated through CasADi's FunctionBuffer, which reads and writes
+numpy memory in place: the same arithmetic, the same numbers, whatever the chunks.
 """
 
 from __future__ import annotations
@@ -27,10 +29,8 @@ class Mapped:
         shapes = [(self.function.size2_out(i), self.function.size1_out(i)) for i in range(self.function.n_out())]
         outputs = [np.empty((count, *shape)) for shape in shapes]
         shared = {i: np.ascontiguousarray(inputs[i], dtype=float) for i in self.shared}
-        for first in range(0, count, CHUNK):
-            points = min(CHUNK, count - first)
-            size = 1 << (points - 1).bit_length()
-            rows = np.arange(first, first + size).clip(max=first + points - 1)
+        for first, size in _chunks(count):
+            rows = slice(first, first + size)
             arguments = [shared[i] if i in shared else np.ascontiguousarray(x[rows], dtype=float) for i, x in enumerate(inputs)]
             results = [np.empty((size, *shape)) for shape in shapes]
             buffer, run = self._mapping(size).buffer()
@@ -40,7 +40,7 @@ class Mapped:
                 buffer.set_res(i, memoryview(result))
             run()
             for output, result in zip(outputs, results):
-                output[first : first + points] = result[:points]
+                output[rows] = result
         return outputs
 
     def _mapping(self, size: int) -> ca.Function:
@@ -48,6 +48,18 @@ class Mapped:
             reduce_in = [i in self.shared for i in range(self.function.n_in())]
             self.mappings[size] = self.function.map(size, reduce_in, [False] * self.function.n_out())
         return self.mappings[size]
+
+
+def _chunks(count: int) -> list[tuple[int, int]]:
+    """(first point, size) of the chunks that cover ``count`` points: CHUNK at a time, then the rest's binary digits,
+    largest first (1000 points: 512, 256, 128, 64, 32, 8)."""
+    first, rest = count - count % CHUNK, count % CHUNK
+    chunks = [(start, CHUNK) for start in range(0, first, CHUNK)]
+    for size in (1 << bit for bit in reversed(range(rest.bit_length()))):
+        if rest & size:
+            chunks.append((first, size))
+            first += size
+    return chunks
 
 
 def _dense(function: ca.Function) -> ca.Function:

@@ -1,5 +1,5 @@
 """kinematics.mapped.Mapped gives, at N points, what CasADi's own Function.map call gives: for outputs with structural
-zeros (a Jacobian's), a shared input, and N across a chunk's end."""
+zeros (a Jacobian's), a shared input, N of many chunks, and N across a chunk's end."""
 
 import casadi as ca
 import numpy as np
@@ -16,7 +16,7 @@ def _function() -> ca.Function:
     return ca.Function("f", [q, p], [pose, ca.jacobian(pose[:3, 3], q)])
 
 
-@pytest.mark.parametrize("count", [1, 5, CHUNK + 3])
+@pytest.mark.parametrize("count", [1, 5, 1000, CHUNK + 3])  # 1000: chunks of 512, 256, ..., 8
 def test_mapped_outputs_equal_function_map(count):
     function = _function()
     assert not function.sparsity_out(1).is_dense()  # the Jacobian: 4 structural nonzeros of 9

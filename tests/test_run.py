@@ -119,7 +119,7 @@ def _check_certificate(folder, data):
 
 
 def test_calibrated_spec_holds_the_identified_values(tmp_path):
-    outcome = run(ROOT / "examples" / "goswami_ballbar" / "spec.yaml", tmp_path)
+    outcome = run(ROOT / "examples" / "goswami_ballbar" / "spec.yaml", tmp_path, pdf=False)
     text = (tmp_path / "calibrated.yaml").read_text()
     assert text.startswith("# Calibrated by armcal")
     assert "centre-to-centre at mid-travel" in text  # the input spec's comments are kept
@@ -148,7 +148,7 @@ def test_run_without_data_is_a_user_error(tmp_path):
 
 def test_stones_feature_method_beside_least_squares(tmp_path):
     """The sonic example asks for s_model_features: features per joint, pseudo-DH, and both residuals."""
-    outcome = run(ROOT / "examples" / "puma560_sonic" / "spec.yaml", tmp_path)
+    outcome = run(ROOT / "examples" / "puma560_sonic" / "spec.yaml", tmp_path, pdf=False)
     results = outcome.results
     assert results.status == "converged" and results.solver.method == "s_model_features"
     block = results.evaluation.s_model_features
@@ -188,7 +188,7 @@ def test_no_grid_task_without_the_datas_truth(tmp_path):
 
     for name in ("spec.yaml", "calibration.csv", "validation.csv"):  # the data without their truth.json
         shutil.copy(ROOT / "examples" / "theodolite" / name, tmp_path / name)
-    evaluation = run(tmp_path / "spec.yaml", tmp_path / "out").results.evaluation
+    evaluation = run(tmp_path / "spec.yaml", tmp_path / "out", pdf=False).results.evaluation
     assert all("needs the true robot" in getattr(evaluation, task).skipped for task in ("grid_task", "iso9283"))
 
 
@@ -202,7 +202,7 @@ def test_sonic_fit_on_raw_ranges_or_triangulated_points(tmp_path, readings):
     assert f"readings: {readings}" in text and "s_model_features" not in text
     (tmp_path / "spec.yaml").write_text(text)
     shutil.copy(folder / "calibration.csv", tmp_path / "calibration.csv")
-    results = run(tmp_path / "spec.yaml", tmp_path / "out").results
+    results = run(tmp_path / "spec.yaml", tmp_path / "out", pdf=False).results
     assert results.status == "converged"
     assert 0.5 < results.noise_check.chi2 / results.noise_check.dof < 1.5
     assert results.residuals.calibration.after.rms < results.residuals.calibration.before.rms / 5
@@ -210,7 +210,7 @@ def test_sonic_fit_on_raw_ranges_or_triangulated_points(tmp_path, readings):
 
 def test_the_undeclared_effect_example_is_diagnosed_through_run(tmp_path):
     """examples/hidden_harmonic: the diagnosis adds joint 2's first harmonic, validation RMS reaches the noise."""
-    results = run(ROOT / "examples" / "hidden_harmonic" / "spec.yaml", tmp_path).results
+    results = run(ROOT / "examples" / "hidden_harmonic" / "spec.yaml", tmp_path, pdf=False).results
     diagnosis = results.diagnosis
     assert [(e.type, e.joint, e.order) for e in diagnosis.added_effects] == [("gear_harmonic", 2, 1)]
     first = diagnosis.rounds[0]
@@ -241,7 +241,7 @@ def test_a_declared_effect_without_values_is_identified_from_zero(tmp_path):
 
 
 def test_evidence_and_plots(tmp_path):
-    results = run(ROOT / "examples" / "hidden_harmonic" / "spec.yaml", tmp_path).results
+    results = run(ROOT / "examples" / "hidden_harmonic" / "spec.yaml", tmp_path, pdf=False).results
     evidence = results.diagnosis.evidence
     histogram = evidence.histogram
     assert sum(histogram.counts) == results.residuals.calibration.after.n

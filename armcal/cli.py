@@ -64,7 +64,7 @@ def main(
 ) -> None:
     """Kinematic calibration of robot arms."""
     # A first run evaluates with CasADi's virtual machine while its functions compile in the background
-    # (identify/compiled.py); ARMCAL_COMPILE=now waits for the compiler instead, as armcal used as a library does.
+    # (support/compiled.py); ARMCAL_COMPILE=now waits for the compiler instead, as armcal used as a library does.
     os.environ.setdefault("ARMCAL_COMPILE", "background")
 
 

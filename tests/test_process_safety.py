@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from armcal.identify import compiled as cache
+from armcal.support import compiled as cache
 from armcal.results.provenance import git_info
 
 GIT_ENV = {
@@ -279,7 +279,7 @@ CHILD = """
 import casadi as ca, sys
 sys.path.insert(0, sys.argv[1])
 from test_process_safety import functions, assert_compiled_like_reference
-from armcal.identify.compiled import compiled
+from armcal.support.compiled import compiled
 assert_compiled_like_reference(compiled(functions(), "truncated"))
 """
 

@@ -91,7 +91,7 @@ class TaskControl:
         the pose (a robot of fewer axes, procedures/placement.py), the desired orientation is the design model's at its
         solution: the one design-model control commands. ``known``: joints (N, n) the placement found reaching the
         frames, taken where the random starts find none."""
-        from armcal.identify.compiled import compiled
+        from armcal.support.compiled import compiled
         from armcal.kinematics import ik
         from armcal.procedures.placement import goal_rows
 

@@ -25,7 +25,7 @@ from armcal.effects.library import from_spec
 from armcal.effects.measurement import EffectSet, extras_size
 from armcal.support.errors import Issue, SpecError, shown_text
 from armcal.support.fileio import csv_text
-from armcal.identify.compiled import compiled
+from armcal.support.compiled import compiled
 from armcal.kinematics import ik
 from armcal.kinematics.compiler import KinematicModel, compile_robot
 from armcal.kinematics.mapped import Mapped

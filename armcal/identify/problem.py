@@ -4,7 +4,7 @@ theta = [robot parameters; device parameters]. Each sample contributes one
 residual per reading, (predicted - measured) / sigma with sigma from the
 device's noise model (angles wrapped to [-pi, pi]). Each key's samples are
 evaluated by mapped calls (CHUNK samples each) of a compiled function
-(identify/compiled.py) that returns the readings and their exact Jacobian, from
+(support/compiled.py) that returns the readings and their exact Jacobian, from
 automatic differentiation of the measurement function (never finite differences);
 the data are inputs of those calls, not constants of a graph, and the weighting is
 done in numpy, written straight into the residual vector and the Jacobian (of the
@@ -27,7 +27,7 @@ import numpy as np
 from armcal.dataio.measurements import Measurements
 from armcal.devices.base import DeviceModel, Key, held_in_contact
 from armcal.effects.measurement import EffectSet, extras_matrix
-from armcal.identify.compiled import compiled, current
+from armcal.support.compiled import compiled, current
 from armcal.identify.threads import each
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.params import ParameterSet

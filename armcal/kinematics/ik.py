@@ -20,6 +20,7 @@ import numpy as np
 
 from armcal.kinematics.compiler import KinematicModel
 from armcal.kinematics.mapped import Mapped
+from armcal.support.compiled import compiled
 
 DAMPING = 1e-6  # Levenberg damping of the Newton step, well below J^T J's scale near a solution
 SAFE_HALVINGS = 12  # for solve(halvings=...): a step that does not reduce the error is halved up to this many times
@@ -39,8 +40,8 @@ class IKResult:
 
 def error_function(model: KinematicModel, frame: str | None = None, width: int = 12) -> ca.Function:
     """delta(q, p, goal) and d delta / d q; goal of ``width`` 12 [p*, x*, y*, z*] (pose), 6 [p*, z*] (point + axis) or
-    3 [p*] (a point, any orientation). The solvers build it for each call; a caller that solves many times may build
-    it once (and compile it) and pass it as ``error``."""
+    3 [p*] (a point, any orientation). The solvers build and compile it for each call (``compiled_error``); a caller
+    that solves many times may build it once and pass it as ``error``."""
     q = ca.SX.sym("q", model.dof)
     p = ca.SX.sym("p", len(model.parameters))
     T = model.fk(q, p) if frame is None else model.targets[frame](q, p)
@@ -49,6 +50,12 @@ def error_function(model: KinematicModel, frame: str | None = None, width: int =
     axes = {12: ca.vertcat(T[:3, 0], T[:3, 1], T[:3, 2]), 6: T[:3, 2], 3: ca.SX(0, 1)}[width]
     delta = ca.vertcat(position, axes - goal[3:])
     return ca.Function("ik_error", [q, p, goal], [delta, ca.jacobian(delta, q)])
+
+
+def compiled_error(model: KinematicModel, frame: str | None, width: int, error: ca.Function | None) -> ca.Function:
+    """``error``, else ``error_function`` in machine code (support/compiled.py: bit for bit the virtual machine's
+    numbers, about nine times as fast; one library per robot, frame and goal width, kept across runs)."""
+    return error if error is not None else compiled([error_function(model, frame, width)])[0]
 
 
 def solve(
@@ -65,7 +72,7 @@ def solve(
 ) -> IKResult:
     """Solve N goals (N, 12) poses [p, x-axis, y-axis, z-axis], (N, 6) [p, z-axis] or (N, 3) [p] from q0 (N, n) or (n,)."""
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
-    function = error if error is not None else error_function(model, frame, width=goals.shape[1])
+    function = compiled_error(model, frame, goals.shape[1], error)
     return _newton(_evaluator(function), model.dof, goals, q0, model.parameter_vector(p), tol_position, tol_rotation, max_iterations, halvings)
 
 
@@ -81,7 +88,7 @@ def solve_in_order(model: KinematicModel, goals: np.ndarray, q0: np.ndarray, hal
     another root are taken. The block doubles while every guess holds and shrinks to what held when one does not:
     down to one goal, the chain itself, where neighbouring goals lie far apart."""
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
-    function = _evaluator(error if error is not None else error_function(model, None, width=goals.shape[1]))
+    function = _evaluator(compiled_error(model, None, goals.shape[1], error))
     p = model.parameters.nominal
 
     def newton(rows: slice, q: np.ndarray, iterations: int = MAX_ITERATIONS, steps_halved: int = halvings) -> IKResult:

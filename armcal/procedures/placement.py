@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from armcal.identify.compiled import compiled
+from armcal.support.compiled import compiled
 from armcal.kinematics import ik
 from armcal.kinematics.transforms import compose, rot_y, rot_z
 from armcal.procedures.tasks import GRID_VERTICES_CM, iso9283_cube

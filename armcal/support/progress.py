@@ -1,7 +1,7 @@
 """A terminal line for every stage of a command that takes longer than a second (issue 18): what it is, said once
 the second has passed, and how long it took when it ends. Stages under a second say nothing.
 
-Lines go to standard error, beside the compile notes of identify/compiled.py (which say that a compile happens once).
+Lines go to standard error, beside the compile notes of support/compiled.py (which say that a compile happens once).
 """
 
 from __future__ import annotations

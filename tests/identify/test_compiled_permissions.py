@@ -5,8 +5,8 @@ import os
 import stat
 import subprocess
 
-from armcal.identify import builder
-from armcal.identify import compiled as cache
+from armcal.support import builder
+from armcal.support import compiled as cache
 
 
 def _under_umask_0(action):

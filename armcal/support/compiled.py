@@ -15,7 +15,7 @@ When the library is not built yet, $ARMCAL_COMPILE says what to do:
   issue 18): compile at once and load the library; a compile that waits on another
   builder of the same cache waits for it rather than building the same file twice;
 - ``background`` (the default of the ``armcal`` command): evaluate with CasADi's
-  virtual machine at once (the same numbers to rounding) and leave the compile to a
+  virtual machine at once (the same numbers, bit for bit: builder.FLAGS) and leave the compile to a
   detached process (builder.py), so the first run pays no compile and later runs
   load the library. A long first run goes on in machine code once the library has
   landed (``current``): the real UR10's first closed loop took 76 s of CPU in the
@@ -49,7 +49,7 @@ from pathlib import Path
 import casadi as ca
 
 from armcal import __version__
-from armcal.identify import builder
+from armcal.support import builder
 
 MODES = ("now", "background", "off")
 LONG = 100_000  # characters of C: more than a second of gcc -O3 (a ball-bar problem's functions: 0.5-1 MB, 4-9 s)
@@ -193,7 +193,7 @@ def _start_builder(source: str, library: Path, compiler: str) -> None:
     work = Path(tempfile.mkdtemp(prefix="build-", dir=library.parent))  # 0700
     _write_source(work / builder.SOURCE, source)
     package_root = str(Path(__file__).resolve().parents[2])
-    code = "import sys; sys.path.insert(0, sys.argv[1]); from armcal.identify.builder import main; main(sys.argv[2:])"
+    code = "import sys; sys.path.insert(0, sys.argv[1]); from armcal.support.builder import main; main(sys.argv[2:])"
     command = [sys.executable, "-I", "-c", code, package_root, str(work), str(library), compiler]
     try:
         subprocess.run(

@@ -15,8 +15,8 @@ built by one untimed run first, as on a user's machine after the first run.
 Both sides' statuses and commands are compared row by row, and so are the baseline's own for the targets moved by
 MOVE_MM: a control. Where a path crosses a singularity, or rows near one are unreachable and the
 next starts from the middle of the limits, which far root Newton-Raphson lands on hangs on the last bits of its start
-(the block's guess, 1e-6 at most from the predecessor's solution) and of the arithmetic (the compiled functions' fused
-multiply-adds); the rows after it then follow another branch. The control shows the code before does the same.
+(the block's guess, 1e-6 at most from the predecessor's solution) and of the arithmetic (the order of a sum); the rows
+after it then follow another branch. The control shows the code before does the same.
 
 Run: .venv/bin/python benchmarks/bench_compensate.py   (prints one table; takes several minutes)
 """

@@ -86,7 +86,7 @@ def case(name: str, spec: Path, folder: Path) -> list[dict]:
     plain, seconds_without = run(spec, folder / f"run_{name}")
     learned, seconds_with = run(with_model(spec), folder / f"run_{name}_gp")
     model = learned["residual_model"]
-    if learned["residuals"] != plain["residuals"]:  # e.g. one run on CasADi's VM, the other on compiled code (last bits)
+    if learned["residuals"] != plain["residuals"]:  # the model's runs should not change the physical fit
         print(f"{name}: the physical figures differ between the runs with and without the model, by up to "
               f"{largest_difference(learned['residuals'], plain['residuals']):.1e} (relative)", flush=True)
     common = dict(accepted=model["accepted"], z=model["z"], seconds_with=seconds_with, seconds_without=seconds_without,

@@ -199,7 +199,8 @@ def plant(folder, identity, scale):
 
 
 def library_path(folder, identity):
-    digest = cache.hashlib.sha256(f"{identity}|armcal {cache.__version__}|casadi {ca.__version__}".encode()).hexdigest()[:32]
+    compiler = cache.shutil.which(cache.os.environ.get("CC", "cc")) or cache.shutil.which("gcc")
+    digest = cache.hashlib.sha256(f"{identity}|armcal {cache.__version__}|casadi {ca.__version__}|{cache.builder.flavour(compiler)}".encode()).hexdigest()[:32]
     return folder / f"armcal_{digest}.so"
 
 

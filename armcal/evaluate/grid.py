@@ -91,11 +91,10 @@ class TaskControl:
         the pose (a robot of fewer axes, procedures/placement.py), the desired orientation is the design model's at its
         solution: the one design-model control commands. ``known``: joints (N, n) the placement found reaching the
         frames, taken where the random starts find none."""
-        from armcal.support.compiled import compiled
         from armcal.kinematics import ik
         from armcal.procedures.placement import goal_rows
 
-        error = compiled([ik.error_function(kinematics, frame, width=goal)])[0]
+        error = ik.compiled_error(kinematics, frame, goal, None)
         q_design = ik.solve_from_starts(kinematics, goal_rows(desired, goal), frame=frame, p=p_design, starts=48, error=error)  # few goals: many starts
         if known is not None:
             q_design = np.where(np.isnan(q_design), known, q_design)

@@ -22,24 +22,26 @@ class Mapped:
     """``function`` at N points: inputs listed in ``shared`` are one value for all points, the others one row a point."""
 
     def __init__(self, function: ca.Function, shared: tuple[int, ...] = ()):
-        self.given, self.evaluated, self.shared = function, function, shared
-        self.function, self.mappings = _dense(function), {}
+        self.given, self.shared = function, shared
+        self.evaluated = _Evaluated(function, shared)
 
     def __call__(self, *inputs: np.ndarray) -> list[np.ndarray]:
         """Each output (N, columns, rows): a point's output matrix in CasADi's column-major order (a column vector's
         values as (N, 1, rows)). Per-point inputs are (N, k) arrays, row i point i's input."""
         count = next(len(x) for i, x in enumerate(inputs) if i not in self.shared)
+        evaluated = self.evaluated  # one version for the whole call, whatever another thread swaps in meanwhile
         landed = current(self.given)  # the library a background build made for it, once there: the same numbers
-        if landed is not self.evaluated:
-            self.evaluated, self.function, self.mappings = landed, _dense(landed), {}
-        shapes = [(self.function.size2_out(i), self.function.size1_out(i)) for i in range(self.function.n_out())]
+        if landed is not evaluated.source:
+            evaluated = self.evaluated = _Evaluated(landed, self.shared)
+        function = evaluated.function
+        shapes = [(function.size2_out(i), function.size1_out(i)) for i in range(function.n_out())]
         outputs = [np.empty((count, *shape)) for shape in shapes]
         shared = {i: np.ascontiguousarray(inputs[i], dtype=float) for i in self.shared}
         for first, size in _chunks(count):
             rows = slice(first, first + size)
             arguments = [shared[i] if i in shared else np.ascontiguousarray(x[rows], dtype=float) for i, x in enumerate(inputs)]
             results = [np.empty((size, *shape)) for shape in shapes]
-            buffer, run = self._mapping(size).buffer()
+            buffer, run = evaluated.mapping(size).buffer()
             for i, argument in enumerate(arguments):
                 buffer.set_arg(i, memoryview(argument))
             for i, result in enumerate(results):
@@ -49,10 +51,18 @@ class Mapped:
                 output[rows] = result
         return outputs
 
-    def _mapping(self, size: int) -> ca.Function:
+
+
+class _Evaluated:
+    """What a Mapped evaluates (the given function, or its library once landed), dense, and its mappings by size."""
+
+    def __init__(self, source: ca.Function, shared: tuple[int, ...]):
+        self.source, self.function, self.mappings = source, _dense(source), {}
+        self.reduce_in = [i in shared for i in range(self.function.n_in())]
+
+    def mapping(self, size: int) -> ca.Function:
         if size not in self.mappings:
-            reduce_in = [i in self.shared for i in range(self.function.n_in())]
-            self.mappings[size] = self.function.map(size, reduce_in, [False] * self.function.n_out())
+            self.mappings[size] = self.function.map(size, self.reduce_in, [False] * self.function.n_out())
         return self.mappings[size]
 
 

@@ -33,7 +33,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from armcal.support.compiled import compiled
 from armcal.kinematics import ik
 from armcal.kinematics.transforms import compose, rot_y, rot_z
 from armcal.procedures.tasks import GRID_VERTICES_CM, iso9283_cube
@@ -126,7 +125,7 @@ class Workspace:
         goals, done, todo = goal_rows(frames, width), np.zeros(len(frames), dtype=bool), np.arange(len(frames))
         Q = np.full((len(frames), self.kinematics.dof), np.nan)
         if width not in self._errors:
-            self._errors[width] = compiled([ik.error_function(self.kinematics, self.frame, width=width)])[0]
+            self._errors[width] = ik.compiled_error(self.kinematics, self.frame, width, None)
         for first, count in zip(np.cumsum((0, *STARTS[:-1])), STARTS):
             if not len(todo):
                 break

@@ -40,9 +40,14 @@ STALE = 24 * 3600.0  # s: a build folder this old belongs to a builder that was 
 
 
 def key(source: str, compiler: str) -> str:
-    """The cache key of a library: what its machine code depends on (the C source, the compiler, its flags and,
-    for -march=native, the processor: a cache shared by machines of different processors keeps one library each)."""
-    return hashlib.sha256(f"{source}\0{compiler} {' '.join(FLAGS)}\0{processor()}".encode()).hexdigest()[:32]
+    """The cache key of a library: what its machine code depends on (the C source, and ``flavour``)."""
+    return hashlib.sha256(f"{source}\0{flavour(compiler)}".encode()).hexdigest()[:32]
+
+
+def flavour(compiler: str) -> str:
+    """What a library's machine code depends on besides its source: the compiler, its flags and, for -march=native,
+    the processor (a cache shared by machines of different processors keeps one library each)."""
+    return f"{compiler} {' '.join(FLAGS)}\0{processor()}"
 
 
 @functools.cache

@@ -85,13 +85,15 @@ def compiled(functions: list[ca.Function], identity: str | None = None) -> list[
     if identity is None:  # the serialized graph and CasADi's version determine the generated source
         digest = builder.key(f"{serialized}\0casadi {ca.__version__}", compiler)
     else:
-        digest = hashlib.sha256(f"{identity}|armcal {__version__}|casadi {ca.__version__}".encode()).hexdigest()[:32]
+        digest = hashlib.sha256(f"{identity}|armcal {__version__}|casadi {ca.__version__}|{builder.flavour(compiler)}".encode()).hexdigest()[:32]
     folder = _private_folder(mode)
     if folder is None:
         return functions
     library = folder / f"armcal_{digest}.so"
     if builder.intact(library):
         return _loaded(library, names)
+    if library in _failed:  # a compile of it failed in this process: it would fail again
+        return functions
     source = _source(serialized, functions, names)
     if mode == "background":
         _start_builder(source, library, compiler)
@@ -105,8 +107,12 @@ def compiled(functions: list[ca.Function], identity: str | None = None) -> list[
             _write_source(path, source)
             builder.build_unless_intact(path, library, compiler)
     except (OSError, subprocess.CalledProcessError):
+        _failed.add(library)
         return functions
     return _loaded(library, names)
+
+
+_failed: set[Path] = set()  # libraries whose compile failed in this process (no compiler, a full disk, ...)
 
 
 CHECK = 0.5  # s between two looks for a library being built in the background (a look hashes it: about a millisecond)

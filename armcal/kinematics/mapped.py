@@ -52,7 +52,6 @@ class Mapped:
         return outputs
 
 
-
 class _Evaluated:
     """What a Mapped evaluates (the given function, or its library once landed), dense, and its mappings by size."""
 

@@ -1,17 +1,14 @@
 """Campaigns that cannot calibrate: clear messages naming the file (and row), exit 1, earlier output untouched."""
 
 import shutil
-import subprocess
-import sys
 
-from conftest import ROOT
+from conftest import ROOT, armcal_cli
 
 EXAMPLES = ROOT / "examples"
 
 
 def _run(folder):
-    cmd = [sys.executable, "-m", "armcal", "run", str(folder / "spec.yaml"), "--out", str(folder / "out")]
-    return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    return armcal_cli("run", folder / "spec.yaml", "--out", folder / "out")
 
 
 def _copy(tmp_path, example, names=("spec.yaml", "calibration.csv", "validation.csv")):
@@ -47,7 +44,7 @@ def test_a_circle_point_sweep_under_180_degrees_violates_b3(tmp_path):
     folder = _copy(tmp_path, "puma560_sonic")
     text = (folder / "spec.yaml").read_text().replace("limits: [-100, 100]", "limits: [-60, 60]")  # joint 5: 120 deg
     (folder / "spec.yaml").write_text(text.replace("seed: 560", "seed: 560\n  noise: true"))
-    simulate = subprocess.run([sys.executable, "-m", "armcal", "simulate", str(folder / "spec.yaml"), "--out", str(folder), "--force"], capture_output=True, text=True, cwd=ROOT)
+    simulate = armcal_cli("simulate", folder / "spec.yaml", "--out", folder, "--force")
     assert simulate.returncode == 0, simulate.stderr
     result = _run(folder)
     assert result.returncode == 1 and "Traceback" not in result.stderr

@@ -54,8 +54,7 @@ def test_a_bad_spec_in_a_fleet_is_reported_and_the_others_go_on(tmp_path):
 
 
 def test_batch_command_line(tmp_path):
-    command = [sys.executable, "-m", "armcal", "batch", *map(str, FLEET), "--out", str(tmp_path), "--no-pdf", "--workers", "2"]
-    result = subprocess.run(command, capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("batch", *FLEET, "--out", tmp_path, "--no-pdf", "--workers", "2")
     assert result.returncode == 0, result.stderr
     assert "2 specs: 2 converged" in result.stdout
     assert {p.name for p in tmp_path.iterdir()} == {"goswami_ballbar-spec", "theodolite-spec", "fleet.json", "fleet.txt"}  # both specs are spec.yaml; the fleet summary

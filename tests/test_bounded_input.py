@@ -3,7 +3,7 @@
 import os
 
 import pytest
-from conftest import ROOT, armcal_cli, copy_example
+from conftest import ROOT, armcal_process, copy_example
 
 EXAMPLE = ROOT / "examples" / "hidden_harmonic"
 SECRET = "armcal-test-secret-3f9a"
@@ -16,7 +16,7 @@ def workspace(tmp_path):
 
 def armcal(*args, timeout=120):
     """The CLI with a secret in its environment (no message may show it)."""
-    return armcal_cli(*args, timeout=timeout, env={**os.environ, "ARMCAL_TEST_SECRET": SECRET})
+    return armcal_process(*args, timeout=timeout, env={**os.environ, "ARMCAL_TEST_SECRET": SECRET})
 
 
 def refused(result, *phrases):

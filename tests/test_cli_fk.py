@@ -1,14 +1,12 @@
 """`armcal fk`: nominal poses in the spec's units, joint values checked against limits."""
 
 import subprocess
-import sys
 
-from conftest import ROOT, SPECS
+from conftest import SPECS, armcal_cli
 
 
 def _fk(*args: str) -> subprocess.CompletedProcess:
-    cmd = [sys.executable, "-m", "armcal", "fk", *args]
-    return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    return armcal_cli("fk", *args)
 
 
 def test_fk_prints_the_tool_position_in_spec_units():

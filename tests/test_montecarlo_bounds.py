@@ -6,7 +6,7 @@ written, in seconds."""
 import time
 
 import pytest
-from conftest import ROOT, armcal_cli
+from conftest import ROOT, armcal_process
 
 from armcal.support.errors import UserError
 from armcal.evaluate.sweeps import MAX_VALUES, parse_sweep, variant
@@ -18,7 +18,7 @@ SONIC = ROOT / "examples" / "puma560_sonic" / "spec.yaml"  # Stone's circle-poin
 
 def _refused_at_once(*args, out, phrase: str) -> None:
     started = time.monotonic()
-    done = armcal_cli(*args, "--out", out, timeout=120)
+    done = armcal_process(*args, "--out", out, timeout=120)
     assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
     assert done.stderr.strip().startswith("error: ") and phrase in done.stderr, done.stderr
     assert not out.exists(), "nothing is written"

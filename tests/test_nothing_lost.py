@@ -1,11 +1,9 @@
 """Nothing lost: earlier artifacts survive a failing run, certificates need --force, re-runs are reproducible."""
 
 import json
-import subprocess
-import sys
 
 import pytest
-from conftest import ROOT, copy_example
+from conftest import ROOT, armcal_cli, copy_example
 
 from armcal.commands.run import run
 
@@ -30,8 +28,7 @@ def test_a_run_failing_at_the_certificate_leaves_the_earlier_artifacts_intact(wo
     (templates / "certificate.html.j2").write_text("{{ no_such_value }}")  # fails the strict render
     text = (workspace / "spec.yaml").read_text().replace("simulate:", "report: {template: templates}\nsimulate:")
     (workspace / "spec.yaml").write_text(text)
-    cmd = [sys.executable, "-m", "armcal", "run", str(workspace / "spec.yaml"), "--out", str(out), "--force"]
-    result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("run", workspace / "spec.yaml", "--out", out, "--force")
     assert result.returncode != 0
     assert _snapshot(out) == before  # results.json, plots, certificate: all as they were
     assert not list(out.glob(".*.tmp"))
@@ -41,8 +38,7 @@ def test_an_existing_certificate_is_not_replaced_without_force(workspace):
     out = workspace / "out"
     run(workspace / "spec.yaml", out)
     before = _snapshot(out)
-    cmd = [sys.executable, "-m", "armcal", "run", str(workspace / "spec.yaml"), "--out", str(out)]
-    result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("run", workspace / "spec.yaml", "--out", out)
     assert result.returncode == 1 and "use --force to replace the certificate" in result.stderr
     assert "Traceback" not in result.stderr
     assert _snapshot(out) == before

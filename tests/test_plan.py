@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +20,7 @@ import pytest
 import scipy.linalg
 
 import independent_sim as sim
+from conftest import armcal_cli
 from armcal.devices import device_model
 from armcal.evaluate.montecarlo import robot_seeds
 from armcal.evaluate.plan_accuracy import PlanStudy, accuracy_curve
@@ -135,7 +134,7 @@ def test_planned_poses_beat_as_many_random_poses_on_simulated_robots(kuka):
 
 
 def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "armcal", "plan", *map(str, args)], capture_output=True, text=True, cwd=cwd)
+    return armcal_cli("plan", *args, cwd=cwd)
 
 
 def test_cli_writes_a_plan_that_extends_a_pose_list(kuka, tmp_path):

@@ -8,8 +8,6 @@ and one more configuration. Joint positions are passed to both unchanged: the li
 zeros and turning senses are the URDFs' (Fanuc's joint 3 is the relative angle in both).
 """
 
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -81,15 +79,15 @@ def test_new_names_the_robots_for_an_unknown_one(tmp_path):
 
 
 def test_new_writes_beside_the_current_folder_and_never_replaces_without_force(tmp_path):
-    command = [sys.executable, "-m", "armcal", "new", "--robot", "kuka_kr16_2", "--device", "ballbar"]
-    first = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True)
+    command = ["new", "--robot", "kuka_kr16_2", "--device", "ballbar"]
+    first = armcal_cli(*command, cwd=tmp_path)
     assert first.returncode == 0, first.stderr
     written = tmp_path / "kuka_kr16_2-ballbar.yaml"
     written.write_text("mine\n")
-    again = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True)
+    again = armcal_cli(*command, cwd=tmp_path)
     assert again.returncode == 1 and "kuka_kr16_2-ballbar.yaml exists; use --force to replace it" in again.stderr
     assert written.read_text() == "mine\n"
-    assert subprocess.run([*command, "--force"], cwd=tmp_path, capture_output=True, text=True).returncode == 0
+    assert armcal_cli(*command, "--force", cwd=tmp_path).returncode == 0
     assert written.read_text().startswith("# KUKA KR 16-2 measured by a ballbar")
 
 

@@ -4,11 +4,9 @@ import csv
 import json
 import math
 import re
-import subprocess
-import sys
 
 import pytest
-from conftest import ROOT, copy_example
+from conftest import ROOT, armcal_cli, copy_example
 
 from armcal.commands.run import run
 from armcal.results.schema import Results
@@ -132,8 +130,7 @@ def test_a_fit_that_cannot_converge_exits_3_with_its_reason(tmp_path):
     (tmp_path / "example").mkdir()
     spec = copy_example("theodolite", tmp_path / "example") / "spec.yaml"
     spec.write_text(spec.read_text().replace("simulate:", "fit: {max_iterations: 1}\nsimulate:"))
-    cmd = [sys.executable, "-m", "armcal", "run", str(spec), "--out", str(tmp_path / "out")]
-    result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+    result = armcal_cli("run", spec, "--out", tmp_path / "out")
     assert result.returncode == 3, result.stderr
     data = json.loads((tmp_path / "out" / "results.json").read_text())
     assert data["status"] == "not_converged" and "iteration limit" in data["solver"]["reason"]

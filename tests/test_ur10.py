@@ -2,13 +2,11 @@
 
 import csv
 import math
-import subprocess
-import sys
 from html import unescape
 
 import numpy as np
 import pytest
-from conftest import ROOT, SHARED_DATA, SPECS
+from conftest import SHARED_DATA, SPECS, armcal_cli
 from rigid_fit import kabsch
 from round_trip import recorded_fits, round_trip
 
@@ -25,8 +23,7 @@ pytestmark = pytest.mark.skipif(not SERIES.exists(), reason="../shared/data/ipa-
 
 def _import(tmp_path, series: str, name: str) -> None:
     source = next((SERIES / f"Series_{series}").glob("measurements_*.csv"))
-    cmd = [sys.executable, "-m", "armcal", "import-ipa", str(SPECS / "ur10.yaml"), str(source), "--out", str(tmp_path / name)]
-    result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("import-ipa", SPECS / "ur10.yaml", source, "--out", tmp_path / name)
     assert result.returncode == 0, result.stderr
 
 

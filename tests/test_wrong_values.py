@@ -1,12 +1,10 @@
 """Values written are the values fitted: YAML anchors shared by two parameters, the campaign's description,
 a data file that is not there."""
 
-import subprocess
-import sys
 
 import pytest
 
-from conftest import EXAMPLE_DATA, ROOT, copy_example
+from conftest import EXAMPLE_DATA, ROOT, armcal_cli, copy_example
 
 from armcal.commands.run import run
 from armcal.results.schema import Results
@@ -37,7 +35,7 @@ def test_two_parameters_sharing_a_yaml_anchor_get_their_own_values(tmp_path):
 def test_validate_says_a_data_file_is_not_there(tmp_path):
     spec = _copy(tmp_path)
     (tmp_path / "validation.csv").unlink()
-    result = subprocess.run([sys.executable, "-m", "armcal", "validate", str(spec)], capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("validate", spec)
     assert result.returncode == 0 and "valid" in result.stdout
     line = next(i for i, text in enumerate(spec.read_text().splitlines(), 1) if "validation: validation.csv" in text)
     assert f"warning: {spec}:{line}:" in result.stderr and "data.validation: validation.csv: no such file" in result.stderr

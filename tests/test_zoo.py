@@ -47,7 +47,7 @@ import numpy as np
 import pytest
 import zoo
 from scipy.stats import chi2
-from conftest import armcal_cli
+from conftest import armcal_process
 
 Z_LIMIT = 3.5
 HOLM_FIRST = 3.72  # |z| of Holm's first step at a family-wise 1 % over 50 parameters: norm.isf(0.01 / 100)
@@ -61,7 +61,7 @@ def calibrate(folder: Path, robot: dict, stream: int = 0, truth: dict | None = N
     """Simulate one campaign into ``folder`` and run `armcal run` on it; the campaign with "returncode",
     "stdout", "stderr", "out" and "results" (None when results.json was not written)."""
     campaign = zoo.write_campaign(folder, robot, stream, truth)
-    result = armcal_cli("run", campaign["spec"], "--out", folder / "out", "--no-pdf", env=ENV, timeout=900)
+    result = armcal_process("run", campaign["spec"], "--out", folder / "out", "--no-pdf", env=ENV, timeout=900)
     path = folder / "out" / "results.json"
     campaign.update(returncode=result.returncode, stdout=result.stdout, stderr=result.stderr, out=folder / "out",
                     results=json.loads(path.read_text()) if path.exists() else None)
@@ -176,7 +176,7 @@ def study_robot(root: Path, seed: int) -> dict:
     if a["results"] is None or b["results"] is None:
         out["seconds"] = time.perf_counter() - started
         return out
-    null = armcal_cli("compare", a["out"], b["out"], env=ENV)
+    null = armcal_process("compare", a["out"], b["out"], env=ENV)
     out["null"] = dict(returncode=null.returncode, flagged=flagged(null.stdout), count=flag_counts(null.stdout),
                        summary=next((line for line in null.stdout.splitlines() if "significant change" in line), null.stderr[-300:]))
     link = changed_link(robot, a["results"])
@@ -187,7 +187,7 @@ def study_robot(root: Path, seed: int) -> dict:
         c = calibrate(root / f"r{seed}c", robot, stream=2, truth=truth)
         out["campaigns"].append(check(c))
         if c["results"] is not None:
-            changed = armcal_cli("compare", a["out"], c["out"], env=ENV)
+            changed = armcal_process("compare", a["out"], c["out"], env=ENV)
             z = next((line.split()[5] for line in changed.stdout.splitlines() if line.startswith(link + " ")), None)
             out["changed"] = dict(link=link, change=5.0 * np.sqrt(2.0) * std, returncode=changed.returncode,
                                   flagged=flagged(changed.stdout), count=flag_counts(changed.stdout), z=z)

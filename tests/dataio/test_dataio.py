@@ -1,10 +1,8 @@
 """A data file that does not fit its spec fails with the file, row (line) and column named."""
 
-import subprocess
-import sys
 
 import pytest
-from conftest import ROOT, SPECS
+from conftest import ROOT, SPECS, armcal_cli
 
 from armcal.dataio.reader import read_joint_file, read_measurements
 from armcal.support.errors import SpecError
@@ -84,8 +82,7 @@ def test_pose_list(tmp_path, spec):
 
 
 def test_cli_simulate_writes_and_reports(tmp_path):
-    cmd = [sys.executable, "-m", "armcal", "simulate", str(SPECS / "puma560_six.yaml"), "--out", str(tmp_path)]
-    result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("simulate", SPECS / "puma560_six.yaml", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "calibration.csv").exists() and (tmp_path / "validation.csv").exists()
     assert (tmp_path / "truth.json").exists()

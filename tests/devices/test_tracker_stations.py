@@ -10,15 +10,13 @@ calibration readings; it is bounded by the Welch-Satterthwaite scaled chi2 at 0.
 
 from __future__ import annotations
 
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 from scipy.stats import chi2
 
 from armcal.commands.run import run
-from conftest import ROOT
+from conftest import armcal_cli
 from independent_sim import DEG, STATIONS, station_jacobians, write_stationed_campaign
 
 ERRORS = {  # the true robot's deviations (mm, deg); none on what the stations' frames or the target carry (j1.theta, j1.d, j6)
@@ -92,8 +90,7 @@ def _block_diagonal(blocks: list[np.ndarray]) -> np.ndarray:
 
 def _refused(spec) -> str:
     """`armcal run` on ``spec``, which must stop with exit 1 and a message, no traceback: its stderr."""
-    cmd = [sys.executable, "-m", "armcal", "run", str(spec), "--no-pdf", "--out", str(spec.parent / "out")]
-    result = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+    result = armcal_cli("run", spec, "--no-pdf", "--out", spec.parent / "out")
     assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
     return result.stderr
 
@@ -183,8 +180,7 @@ def test_simulate_reads_every_pose_at_every_declared_station(tmp_path):
         text = text.replace(f"{name}: {{robot_base: {{x: 0, y: 0, z: 0, rz: 0, ry: 0, rx: 0}}}}",
                             f"{name}: {{robot_base: {{x: {f['x']}, y: {f['y']}, z: {f['z']}, rz: {f['rz']}, ry: {f['ry']}, rx: {f['rx']}}}}}")
     spec.write_text(text)
-    simulated = subprocess.run([sys.executable, "-m", "armcal", "simulate", str(spec), "--out", str(tmp_path), "--force"],
-                               capture_output=True, text=True, cwd=ROOT, timeout=300)
+    simulated = armcal_cli("simulate", spec, "--out", tmp_path, "--force")
     assert simulated.returncode == 0, simulated.stderr
     rows = [line.split(",") for line in (tmp_path / "calibration.csv").read_text().splitlines()]
     station = rows[0].index("station")

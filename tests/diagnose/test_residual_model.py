@@ -16,7 +16,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, armcal_cli
 from test_run import E_NOTATION
 
 import independent_sim as sim
@@ -115,8 +115,7 @@ def test_the_run_reports_the_learned_model_everywhere(bent):
 
 def test_urdf_export_says_the_learned_model_is_not_carried(bent, tmp_path):
     outcome, *_ = bent
-    exported = subprocess.run([sys.executable, "-m", "armcal", "export", str(outcome.out_dir), "--format", "urdf", "--out", str(tmp_path / "r.urdf")],
-                              capture_output=True, text=True, cwd=ROOT, timeout=120)
+    exported = armcal_cli("export", outcome.out_dir, "--format", "urdf", "--out", tmp_path / "r.urdf")
     assert exported.returncode == 0, exported.stderr
     assert "learned residual model that the run accepted is not carried" in exported.stdout
 
@@ -130,8 +129,7 @@ def test_export_json_carries_the_model_and_its_predictions_come_back(bent, tmp_p
     from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
     outcome, *_ = bent
-    exported = subprocess.run([sys.executable, "-m", "armcal", "export", str(outcome.out_dir), "--format", "json", "--out", str(tmp_path / "c.json")],
-                              capture_output=True, text=True, cwd=ROOT, timeout=120)
+    exported = armcal_cli("export", outcome.out_dir, "--format", "json", "--out", tmp_path / "c.json")
     assert exported.returncode == 0 and "learned residual model that the run accepted is carried" in exported.stdout, exported.stdout + exported.stderr
     carried = json.loads((tmp_path / "c.json").read_text())["residual_model"]
     assert [m["coordinate"] for m in carried["coordinates"]] == ["base_x", "base_y", "base_z"]
@@ -170,8 +168,7 @@ def test_calibrated_yaml_stores_the_model_and_its_predictions_come_back_exactly(
     for read in BASE:
         for back, fitted in zip(stored.coordinates[read, "smr"].predict(q), run_model.coordinates[read, "smr"].predict(q)):
             assert np.array_equal(back, fitted), read
-    exported = subprocess.run([sys.executable, "-m", "armcal", "export", str(alone), "--format", "json", "--out", str(tmp_path / "c.json")],
-                              capture_output=True, text=True, cwd=ROOT, timeout=120)
+    exported = armcal_cli("export", alone, "--format", "json", "--out", tmp_path / "c.json")
     assert "learned residual model that the run accepted is carried" in exported.stdout, exported.stdout + exported.stderr
     assert [c["coordinate"] for c in json.loads((tmp_path / "c.json").read_text())["residual_model"]["coordinates"]] == list(BASE)
 
@@ -188,8 +185,7 @@ def test_a_run_folder_without_the_section_carries_results_jsons_model_and_refuse
     (old / "results.json").write_text(json.dumps(written))
     targets = tmp_path / "targets.csv"
     targets.write_text("name,x,y,z,rx,ry,rz\nt1,600,150,300,0,90,0\n")
-    armcal = lambda: subprocess.run([sys.executable, "-m", "armcal", "compensate", str(old), "--targets", str(targets), "--out", str(tmp_path / "c.csv"),  # noqa: E731
-                                     "--force"], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    armcal = lambda: armcal_cli("compensate", old, "--targets", targets, "--out", tmp_path / "c.csv", "--force")  # noqa: E731
     shown = armcal()
     assert shown.returncode == 0 and "learned correction (residual_model: the error of target smr's" in shown.stdout, shown.stdout + shown.stderr
     for coordinate in written["residual_model"]["model"]:

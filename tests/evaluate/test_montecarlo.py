@@ -13,12 +13,10 @@ held to 0.2 (two such errors).
 """
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, armcal_cli
 
 from armcal.evaluate.sweeps import parse_sweep, variant
 from armcal.kinematics.compiler import compile_robot
@@ -124,8 +122,7 @@ def test_target_radius_sweep_moves_every_swept_target_to_r():
     ],
 )
 def test_study_mistakes_are_user_errors(tmp_path, arguments, message):
-    command = [sys.executable, "-m", "armcal", "montecarlo", str(SONIC), "--out", str(tmp_path), *arguments]
-    result = subprocess.run(command, capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("montecarlo", SONIC, "--out", tmp_path, *arguments)
     assert result.returncode in (1, 2) and message in result.stderr and "Traceback" not in result.stderr
 
 

@@ -2,12 +2,10 @@
 get Hayati's beta; an effect never frees a geometric parameter; Levenberg-Marquardt stops at a minimum."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT, SPECS, random_configurations
+from conftest import ROOT, SPECS, armcal_cli, random_configurations
 from round_trip import round_trip
 
 from armcal.identify.identifiability import EFFECT_NEW_PART, RANK_TOLERANCE, analyse, extend
@@ -59,7 +57,7 @@ def test_parallel_dh_axes_get_hayatis_beta_and_keep_the_nominal_poses(name, para
 
 
 def test_validate_says_how_parallel_axes_are_modelled():
-    out = subprocess.run([sys.executable, "-m", "armcal", "validate", str(SPECS / "ur10.yaml")], capture_output=True, text=True, cwd=ROOT)
+    out = armcal_cli("validate", SPECS / "ur10.yaml")
     assert out.returncode == 0, out.stderr
     assert "axes 2 and 3: Hayati's shoulder_lift.beta added (free, 0), shoulder_lift.d held" in out.stdout
     assert "axes 3 and 4: Hayati's elbow.beta added (free, 0), elbow.d held" in out.stdout
@@ -217,8 +215,7 @@ def test_a_fit_that_truly_cannot_converge_says_why_everywhere(tmp_path):
     for name in ("calibration.csv", "validation.csv"):
         (tmp_path / name).write_bytes((folder / name).read_bytes())
     (tmp_path / "spec.yaml").write_text(text)
-    cmd = [sys.executable, "-m", "armcal", "run", str(tmp_path / "spec.yaml"), "--out", str(tmp_path / "out")]
-    out = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    out = armcal_cli("run", tmp_path / "spec.yaml", "--out", tmp_path / "out")
     assert out.returncode == 3, out.stderr
     data = json.loads((tmp_path / "out" / "results.json").read_text())
     reason = data["solver"]["reason"]

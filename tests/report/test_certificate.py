@@ -6,7 +6,7 @@ import shutil
 
 import jinja2
 import pytest
-from conftest import ROOT, TESTS
+from conftest import TESTS, armcal_cli
 
 from armcal.support.errors import UserError
 from armcal.report.context import certificate_context
@@ -72,11 +72,8 @@ def test_the_fetcher_serves_the_stylesheet():
 
 
 def test_report_rerenders_from_results_alone(tmp_path):
-    import subprocess
-    import sys
-
     shutil.copy(GOLDEN / "results.json", tmp_path / "results.json")
-    result = subprocess.run([sys.executable, "-m", "armcal", "report", str(tmp_path / "results.json")], capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("report", tmp_path / "results.json")
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "certificate.pdf").stat().st_size > 10_000
 

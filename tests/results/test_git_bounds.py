@@ -13,7 +13,7 @@ import time
 import zlib
 
 import pytest
-from conftest import armcal_cli
+from conftest import armcal_process
 
 from armcal.support import gitrepo
 from armcal.support.errors import UserError
@@ -184,7 +184,7 @@ def test_a_read_is_bounded_in_time(tmp_path, monkeypatch):
 def test_compare_names_the_revision_and_exits_1(tmp_path):
     git_dir, spec = _repo(tmp_path, _blob_id(SPEC))
     _pack(git_dir, _chain(SPEC, gitrepo._MAX_DEPTH + 1), _blob_id(SPEC))
-    result = armcal_cli("compare", f"{spec}@HEAD", spec, timeout=60)
+    result = armcal_process("compare", f"{spec}@HEAD", spec, timeout=60)
     assert result.returncode == 1 and f"{spec}@HEAD" in result.stderr and "deeper than" in result.stderr
     assert "Traceback" not in result.stderr
 

@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import ROOT, SPECS
+from conftest import ROOT, SPECS, armcal_cli
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
@@ -171,8 +171,6 @@ def test_an_edited_or_undigested_truth_record_is_refused_and_its_layout_does_not
     the file unchanged. Re-indenting and reordering keys is no edit. The shipped examples carry a matching digest."""
     import hashlib
     import shutil
-    import subprocess
-    import sys
 
     from armcal.support.errors import UserError
     from armcal.simulate import find_truth
@@ -203,8 +201,7 @@ def test_an_edited_or_undigested_truth_record_is_refused_and_its_layout_does_not
             find_truth(tmp_path / "calibration.csv")
         assert path.read_text() == text, what
 
-    done = subprocess.run([sys.executable, "-m", "armcal", "run", tmp_path / "spec.yaml", "--out", tmp_path / "out", "--no-pdf"],
-                          capture_output=True, text=True, cwd=ROOT, timeout=300)
+    done = armcal_cli("run", tmp_path / "spec.yaml", "--out", tmp_path / "out", "--no-pdf")
     assert done.returncode == 1 and "Traceback" not in done.stderr and "not a truth record" in done.stderr, done.stderr
     assert not (tmp_path / "out" / "results.json").exists()
 

@@ -1,18 +1,16 @@
 """`armcal schema` describes every shipped spec, and rejects what the loader rejects."""
 
 import json
-import subprocess
-import sys
 
 import jsonschema
 import pytest
-from conftest import ROOT, shipped_specs
+from conftest import ROOT, armcal_cli, shipped_specs
 from ruamel.yaml import YAML
 
 
 @pytest.fixture(scope="module")
 def schema() -> dict:
-    result = subprocess.run([sys.executable, "-m", "armcal", "schema"], capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("schema")
     assert result.returncode == 0, result.stderr
     return json.loads(result.stdout)
 
@@ -82,7 +80,7 @@ def test_parameters_carry_examples_of_both_forms(schema):
 
 
 def test_the_shipped_schema_is_armcal_schema():
-    result = subprocess.run([sys.executable, "-m", "armcal", "schema"], capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("schema")
     assert SHIPPED.read_text() == result.stdout, "regenerate: armcal schema > schema/armcal-spec.schema.json"
 
 
@@ -92,7 +90,7 @@ def test_a_spec_with_the_editor_line_validates(tmp_path):
     spec = tmp_path / "specs" / "puma560_dh.yaml"
     spec.parent.mkdir()
     spec.write_text(EDITOR_LINE + (ROOT / "specs" / "puma560_dh.yaml").read_text())
-    result = subprocess.run([sys.executable, "-m", "armcal", "validate", spec], capture_output=True, text=True, cwd=ROOT)
+    result = armcal_cli("validate", spec)
     assert result.returncode == 0, result.stderr
     named = (ROOT / "specs" / EDITOR_LINE.split("$schema=")[1].strip()).resolve()
     assert named == SHIPPED

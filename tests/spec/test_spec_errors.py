@@ -1,11 +1,10 @@
 """A wrong spec gives located, plain messages; all of them at once; never a traceback."""
 
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, SPECS, TESTS
+from conftest import SPECS, TESTS, armcal_cli
 
 from armcal.support.errors import SpecError
 from armcal.spec import load_spec
@@ -97,7 +96,7 @@ def test_quantities_convert_to_mm_and_rad(tmp_path):
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "armcal", *args], capture_output=True, text=True, cwd=ROOT)
+    return armcal_cli(*args)
 
 
 def test_validate_exits_1_without_traceback():

@@ -5,11 +5,16 @@ tool (CLI, pipeline, documentation, safety) stay here. A test may take its cases
 another folder by module name: every folder is on the import path.
 """
 
+import ctypes
+import logging
 import os
 import shutil
+import signal
 import subprocess
 import sys
+import tempfile
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import armcal  # noqa: F401 - before numpy, as the CLI: its one-thread BLAS settings hold here as in the workers it spawns
@@ -50,27 +55,80 @@ def armcal_process(*args, cwd: Path = ROOT, timeout: float = 300, env: dict | No
 IGNORED_WARNINGS = (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning)
 
 
-def armcal_cli(*args, cwd: Path = ROOT) -> subprocess.CompletedProcess:
+class CommandTimeout(BaseException):
+    """A command ran past its time limit: a hang (BaseException: no handler of the command's catches it)."""
+
+
+def armcal_cli(*args, cwd: Path = ROOT, timeout: float = 300) -> subprocess.CompletedProcess:
     """`armcal ARGS` as `python -m armcal ARGS` runs it from ``cwd`` (the project's folder), in this process: exit code,
-    stdout and stderr (Python's warnings printed there too); an exception the CLI lets escape fails the test.
-    The working folder and the environment are restored after (the CLI sets ARMCAL_COMPILE).
-    ARMCAL_TEST_PROCESS=1 runs each in a process of its own instead (docs/development.md)."""
+    stdout and stderr as a pipe gets them (Python's warnings and log records, and what C code and child processes
+    write to the descriptors, included; help wrapped for a pipe); an exception the CLI lets escape fails the test,
+    and so does a command running past ``timeout`` seconds. The working folder and the environment are restored
+    after (the CLI sets ARMCAL_COMPILE). ARMCAL_TEST_PROCESS=1 runs each in a process of its own instead
+    (docs/development.md)."""
     if os.environ.get("ARMCAL_TEST_PROCESS"):
-        return armcal_process(*args, cwd=cwd)
+        return armcal_process(*args, cwd=cwd, timeout=timeout)
     folder, environment = os.getcwd(), dict(os.environ)
+    records = _CurrentStderr(logging.WARNING)  # Python's last-resort handler, which pytest's own handlers displace
     os.chdir(cwd)
+    logging.getLogger().addHandler(records)
     try:
-        with warnings.catch_warnings(record=True) as caught:
+        with _descriptors() as written, _time_limit(timeout), warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("default")
             for category in IGNORED_WARNINGS:
                 warnings.simplefilter("ignore", category)
-            result = CliRunner().invoke(app, [str(arg) for arg in args], catch_exceptions=False, prog_name="armcal")
+            width = max(min(shutil.get_terminal_size().columns, 80) - 2, 50)  # click's help width on a pipe
+            result = CliRunner().invoke(app, [str(arg) for arg in args], catch_exceptions=False, prog_name="armcal", terminal_width=width)
     finally:
+        logging.getLogger().removeHandler(records)
         os.chdir(folder)
         os.environ.clear()
         os.environ.update(environment)
     shown = "".join(warnings.formatwarning(w.message, w.category, w.filename, w.lineno) for w in caught)
-    return subprocess.CompletedProcess(["armcal", *map(str, args)], result.exit_code, result.stdout, result.stderr + shown)
+    return subprocess.CompletedProcess(["armcal", *map(str, args)], result.exit_code, result.stdout + written["out"], result.stderr + shown + written["err"])
+
+
+class _CurrentStderr(logging.StreamHandler):
+    """Log records written to whatever sys.stderr is when they come (the runner's, during a command)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.setStream(sys.stderr)
+        super().emit(record)
+
+
+@contextmanager
+def _descriptors():
+    """What reaches file descriptors 1 and 2 meanwhile (C code, child processes), as text: {"out": ..., "err": ...}."""
+    written, files, saved = {}, [tempfile.TemporaryFile(), tempfile.TemporaryFile()], [os.dup(1), os.dup(2)]
+    sys.stdout.flush(), sys.stderr.flush()
+    for descriptor, file in zip((1, 2), files):
+        os.dup2(file.fileno(), descriptor)
+    try:
+        yield written
+    finally:
+        ctypes.CDLL(None).fflush(None)  # C's buffered output, which a process flushes at its exit
+        for descriptor, file, name in zip((1, 2), files, ("out", "err")):
+            os.dup2(saved[descriptor - 1], descriptor)
+            os.close(saved[descriptor - 1])
+            file.seek(0)
+            written[name] = file.read().decode(errors="replace")
+            file.close()
+
+
+@contextmanager
+def _time_limit(seconds: float):
+    """Raise CommandTimeout in this (the main) thread once ``seconds`` have passed."""
+
+    def expire(*_):
+        raise CommandTimeout(f"the command ran longer than {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 def shipped_specs() -> list[Path]:

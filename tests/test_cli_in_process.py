@@ -40,7 +40,5 @@ def test_a_command_that_hangs_fails_at_its_timeout(monkeypatch):
     import armcal.commands.terminal
 
     monkeypatch.setattr(armcal.commands.terminal, "spec_summary", lambda loaded: time.sleep(60))
-    started = time.monotonic()
-    with pytest.raises(CommandTimeout):
+    with pytest.raises(CommandTimeout):  # the summary would return after 60 s, with exit 0
         armcal_cli("validate", SPECS / "ur10.yaml", timeout=1)
-    assert time.monotonic() - started < 30

@@ -105,11 +105,14 @@ def _chain(base: bytes, depth: int) -> list[bytes]:
     return entries
 
 
-def _refused(spec, match: str, seconds: float = 5.0) -> str:
+HANG = 60.0  # s: a wait only a hang reaches, however loaded the machine (the messages show where reading stopped)
+
+
+def _refused(spec, match: str) -> str:
     started = time.monotonic()
     with pytest.raises(UserError, match=match) as caught:
         file_at_revision(spec, "HEAD")
-    assert time.monotonic() - started < seconds
+    assert time.monotonic() - started < HANG
     assert str(caught.value).startswith(f"{spec}@HEAD: ")
     return str(caught.value)
 
@@ -212,18 +215,18 @@ def test_alternates_are_followed_to_gits_depth_and_bounded(tmp_path, monkeypatch
     assert file_at_revision(spec, "HEAD") == SPEC
 
     _alternates(objects, "# " + "x" * 5000)
-    _refused(spec, r"alternates is larger than 4096 bytes", seconds=1.0)
+    _refused(spec, r"alternates is larger than 4096 bytes")
 
     _alternates(objects, *(str(tmp_path / f"o{k}") for k in range(17)))
-    _refused(spec, r"alternates: more than 16 alternate object folders; refused", seconds=1.0)
+    _refused(spec, r"alternates: more than 16 alternate object folders; refused")
 
     chain = [tmp_path / f"nest{k}" for k in range(7)]
     _alternates(objects, str(chain[0]))
     for folder, following in zip(chain, chain[1:]):
         _alternates(folder, str(following))
-    message = _refused(spec, r"alternates nested more than 5 deep \(git's own limit\); refused", seconds=1.0)
+    message = _refused(spec, r"alternates nested more than 5 deep \(git's own limit\); refused")
     assert str(chain[5] / "info" / "alternates") in message
 
     _alternates(objects, str(second))
     monkeypatch.setattr(gitrepo, "READ_SECONDS", -1.0)
-    _refused(spec, r"alternates: reading the repository took more than -1 s", seconds=1.0)
+    _refused(spec, r"alternates: reading the repository took more than -1 s")

@@ -8,7 +8,7 @@ import subprocess
 import sys
 
 import pytest
-from conftest import ROOT, armcal_cli
+from conftest import ROOT, armcal_cli, armcal_process
 
 URDF = ROOT / "tests" / "data" / "urdf" / "ros_industrial.urdf"
 
@@ -214,6 +214,6 @@ def test_a_hard_link_to_an_input_is_refused_like_the_input(tmp_path):
 def test_an_output_name_ending_in_a_slash_names_a_folder_and_nothing_is_written(tmp_path, command):
     """`--out name/` is a folder's name: refused before anything runs (pathlib would drop the slash and write a file)."""
     out = tmp_path / "nodir"
-    done = subprocess.run([sys.executable, "-m", "armcal", *command, "--out", f"{out}/"], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    done = armcal_process(*command, "--out", f"{out}/")
     assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
     assert "ends in '/', which names a folder" in done.stderr and not out.exists()

@@ -5,13 +5,11 @@ import json
 import os
 import re
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import matplotlib
 import pytest
-from conftest import ROOT, TESTS
+from conftest import ROOT, TESTS, armcal_process
 
 from armcal.support.errors import UserError
 from armcal.report.context import certificate_context
@@ -22,10 +20,6 @@ from armcal.results.schema import Evidence, Results
 
 GOLDEN = TESTS / "data" / "golden"
 OUTSIDE = Path("/etc/hostname")  # any readable file outside the folders
-
-
-def armcal(*args, cwd=ROOT, timeout=300, env=None):
-    return subprocess.run([sys.executable, "-m", "armcal", *map(str, args)], capture_output=True, text=True, cwd=cwd, timeout=timeout, env=env)
 
 
 def golden() -> dict:
@@ -63,7 +57,7 @@ def assert_user_error(result, *expected: str) -> None:
 def test_run_refuses_a_template_that_includes_a_link_to_a_file_outside(example, tmp_path):
     folder = use_templates(example, {TEMPLATE: "<p>{{ number }}</p>\n{% include 'host.html' %}\n"})
     (folder / "host.html").symlink_to(OUTSIDE)
-    result = armcal("run", example, "--out", tmp_path / "out", "--no-pdf")
+    result = armcal_process("run", example, "--out", tmp_path / "out", "--no-pdf")
     assert_user_error(result, f"{TEMPLATE}:2:", "host.html leads outside")
     assert OUTSIDE.read_text().strip() not in result.stdout + result.stderr
     assert not (tmp_path / "out" / "certificate.html").exists()
@@ -121,7 +115,7 @@ def test_report_embeds_no_plot_from_outside_its_folder(results_folder, kind):
         (results_folder / name).symlink_to("/etc/passwd")
     elif kind == "too large":
         (results_folder / name).write_bytes(b"<svg/>" + b" " * (10 << 20))
-    result = armcal("report", list_plots(results_folder, [name]), "--no-pdf", timeout=120)
+    result = armcal_process("report", list_plots(results_folder, [name]), "--no-pdf", timeout=120)
     assert_user_error(result, f"lists the plot '{name}'")
     assert "root:" not in result.stderr
     assert not (results_folder / "certificate.html").exists()
@@ -129,14 +123,14 @@ def test_report_embeds_no_plot_from_outside_its_folder(results_folder, kind):
 
 def test_report_leaves_out_a_listed_plot_that_is_missing_and_embeds_the_others(results_folder):
     (results_folder / "residual_histogram.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg"/>')
-    result = armcal("report", list_plots(results_folder, ["residual_histogram.svg", "residual_vs_t.svg"]), "--no-pdf")
+    result = armcal_process("report", list_plots(results_folder, ["residual_histogram.svg", "residual_vs_t.svg"]), "--no-pdf")
     assert result.returncode == 0, result.stderr
     assert (results_folder / "certificate.html").read_text().count("data:image/svg+xml;base64,") == 1
 
 
 def test_a_user_stylesheet_is_applied_in_the_pdf(example, tmp_path):
     use_templates(example, {"certificate.css": '@page { size: A4; margin: 20mm; @top-center { content: "STYLED BY OUR LAB"; } }\n'})
-    result = armcal("run", example, "--out", tmp_path / "out")
+    result = armcal_process("run", example, "--out", tmp_path / "out")
     assert result.returncode == 0, result.stderr
     from pypdf import PdfReader
 
@@ -177,8 +171,8 @@ def masked(text: str) -> str:
 def test_two_runs_of_one_spec_give_the_same_artifacts_but_the_creation_time(example, tmp_path):
     """With the default background compile a cold cache lets the first run use CasADi's virtual machine and the second
     the compiled library: the same numbers, bit for bit."""
-    assert armcal("run", example, "--out", tmp_path / "one", "--no-pdf").returncode == 0
-    assert armcal("run", "./ex/../ex/spec.yaml", "--out", "two", "--no-pdf", cwd=tmp_path).returncode == 0
+    assert armcal_process("run", example, "--out", tmp_path / "one", "--no-pdf").returncode == 0
+    assert armcal_process("run", "./ex/../ex/spec.yaml", "--out", "two", "--no-pdf", cwd=tmp_path).returncode == 0
     one, two = tmp_path / "one", tmp_path / "two"
     svgs = sorted(p.name for p in one.glob("*.svg"))
     assert svgs and svgs == sorted(p.name for p in two.glob("*.svg"))
@@ -212,7 +206,7 @@ def test_drawing_plots_twice_gives_the_same_svg_and_leaves_rcparams_alone():
 
 def test_run_reports_a_template_syntax_error_with_file_and_line(example, tmp_path):
     folder = use_templates(example, {TEMPLATE: "<p>{{ number }}</p>\n{% if %}\n"})
-    result = armcal("run", example, "--out", tmp_path / "out", "--no-pdf")
+    result = armcal_process("run", example, "--out", tmp_path / "out", "--no-pdf")
     assert_user_error(result, f"{folder / TEMPLATE}:2: ")
 
 
@@ -275,7 +269,7 @@ def tamper(path: Path, kind: str) -> None:
 def test_report_on_a_tampered_results_file_gives_one_message(tmp_path, kind):
     path = tmp_path / "results.json"
     tamper(path, kind)
-    result = armcal("report", path, "--no-pdf", timeout=120)
+    result = armcal_process("report", path, "--no-pdf", timeout=120)
     assert_user_error(result, f"error: {path}")
     assert len(result.stderr.strip().splitlines()) == 1
 

@@ -1,6 +1,5 @@
 """A wrong spec gives located, plain messages; all of them at once; never a traceback."""
 
-import subprocess
 from pathlib import Path
 
 import pytest
@@ -95,25 +94,21 @@ def test_quantities_convert_to_mm_and_rad(tmp_path):
     assert joint.limits[0] == pytest.approx(-225 * 3.141592653589793 / 180)
 
 
-def _cli(*args: str) -> subprocess.CompletedProcess:
-    return armcal_cli(*args)
-
-
 def test_validate_exits_1_without_traceback():
-    result = _cli("validate", str(DATA / "broken.yaml"))
+    result = armcal_cli("validate", str(DATA / "broken.yaml"))
     assert result.returncode == 1
     assert "Traceback" not in result.stderr + result.stdout
     assert "broken.yaml:9:41: robot.joints[2].d:" in result.stderr
 
 
 def test_validate_exits_0_on_a_valid_spec():
-    result = _cli("validate", str(SPECS / "puma560_dh.yaml"))
+    result = armcal_cli("validate", str(SPECS / "puma560_dh.yaml"))
     assert result.returncode == 0, result.stderr
     assert "valid" in result.stdout and "6 joints" in result.stdout
 
 
 def test_missing_file_is_a_user_error():
-    result = _cli("validate", "no/such/spec.yaml")
+    result = armcal_cli("validate", "no/such/spec.yaml")
     assert result.returncode == 1 and "cannot read the spec" in result.stderr and "Traceback" not in result.stderr
 
 

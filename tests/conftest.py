@@ -35,6 +35,7 @@ SHARED_DATA = ROOT.parent / "shared" / "data"
 
 
 EXAMPLE_DATA = ("spec.yaml", "calibration.csv", "validation.csv")
+HANG = 60.0  # s: a wait that only a hang reaches, however loaded the machine (no test has a shorter wall-clock limit)
 
 
 def copy_example(name: str, folder: Path, files: tuple[str, ...] = EXAMPLE_DATA) -> Path:

@@ -11,7 +11,7 @@ import sys
 import time
 
 import pytest
-from conftest import EXAMPLE_DATA, ROOT, armcal_cli, copy_example
+from conftest import EXAMPLE_DATA, HANG, ROOT, armcal_cli, copy_example
 
 from armcal.support.output_set import MANIFEST
 from armcal.commands.run import run
@@ -134,8 +134,8 @@ def test_two_concurrent_runs_into_one_folder(workspace):
 
 
 def _kill_when(job: subprocess.Popen, moment) -> None:
-    """SIGKILL ``job`` as soon as ``moment()`` holds (polled every 5 ms), or once it has ended; 60 s at most."""
-    deadline = time.perf_counter() + 60
+    """SIGKILL ``job`` as soon as ``moment()`` holds (polled every 5 ms), or once it has ended; HANG at most."""
+    deadline = time.perf_counter() + HANG
     while job.poll() is None and time.perf_counter() < deadline:
         try:
             if moment():

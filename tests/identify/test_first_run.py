@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import ROOT, copy_example
+from conftest import HANG, ROOT, copy_example
 
 from armcal.dataio.reader import read_measurements
 from armcal.devices import device_model
@@ -31,7 +31,6 @@ from armcal.commands.run import fitted_device
 from armcal.spec import load_spec
 
 EXAMPLES = ("goswami_ballbar", "hidden_harmonic", "puma560_sonic", "theodolite")
-HANG = 60.0  # s: waits that only a hang reaches, however loaded the machine
 
 
 @pytest.fixture

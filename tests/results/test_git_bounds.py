@@ -13,7 +13,7 @@ import time
 import zlib
 
 import pytest
-from conftest import armcal_process
+from conftest import HANG, armcal_process
 
 from armcal.support import gitrepo
 from armcal.support.errors import UserError
@@ -105,10 +105,8 @@ def _chain(base: bytes, depth: int) -> list[bytes]:
     return entries
 
 
-HANG = 60.0  # s: a wait only a hang reaches, however loaded the machine (the messages show where reading stopped)
-
-
 def _refused(spec, match: str) -> str:
+    """The read refused with ``match``, within HANG (the message shows where reading stopped)."""
     started = time.monotonic()
     with pytest.raises(UserError, match=match) as caught:
         file_at_revision(spec, "HEAD")
@@ -187,7 +185,7 @@ def test_a_read_is_bounded_in_time(tmp_path, monkeypatch):
 def test_compare_names_the_revision_and_exits_1(tmp_path):
     git_dir, spec = _repo(tmp_path, _blob_id(SPEC))
     _pack(git_dir, _chain(SPEC, gitrepo._MAX_DEPTH + 1), _blob_id(SPEC))
-    result = armcal_process("compare", f"{spec}@HEAD", spec, timeout=60)
+    result = armcal_process("compare", f"{spec}@HEAD", spec, timeout=HANG)
     assert result.returncode == 1 and f"{spec}@HEAD" in result.stderr and "deeper than" in result.stderr
     assert "Traceback" not in result.stderr
 

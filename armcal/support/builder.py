@@ -32,7 +32,9 @@ from pathlib import Path
 # This processor's instructions, but no a*b+c contracted into one fused multiply-add (rounded once instead of twice):
 # the machine code then computes what CasADi's virtual machine computes, bit for bit, on any processor. Fusing was
 # 12-18 % faster (the UR10's closed loop 6.6 s of CPU against 7.8 s), and made the last bits, and outcomes that hang
-# on them, depend on the processor and on whether a run had its library yet.
+# on them, depend on the processor and on whether a run had its library yet. -O1 compiled the ball-bar and
+# hidden-harmonic examples' libraries in 0.56-0.57 of -O3's compiler time, to the same numbers bit for bit, but their
+# warm runs took 8-15 % more CPU (2026-12-07): a library is compiled once and run many times, so -O3.
 FLAGS = ("-shared", "-fPIC", "-O3", "-march=native", "-ffp-contract=off")
 PORTABLE = ("-shared", "-fPIC", "-O3", "-ffp-contract=off")  # for a compiler that does not know -march=native
 SOURCE = "functions.c"  # the C file inside a build folder

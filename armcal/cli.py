@@ -63,9 +63,6 @@ def main(
     version: Annotated[bool, typer.Option("--version", callback=_print_version, is_eager=True, help="Print armcal's version and exit.")] = False,
 ) -> None:
     """Kinematic calibration of robot arms."""
-    # A first run evaluates with CasADi's virtual machine while its functions compile in the background
-    # (support/compiled.py); ARMCAL_COMPILE=now waits for the compiler instead, as armcal used as a library does.
-    os.environ.setdefault("ARMCAL_COMPILE", "background")
 
 
 SpecArg = Annotated[Path, typer.Argument(help="Calibration spec (YAML).", metavar="SPEC", show_default=False)]

@@ -65,7 +65,7 @@ def armcal_cli(*args, cwd: Path = ROOT, timeout: float = 300) -> subprocess.Comp
     stdout and stderr as a pipe gets them (Python's warnings and log records, and what C code and child processes
     write to the descriptors, included; help wrapped for a pipe); an exception the CLI lets escape fails the test,
     and so does a command running past ``timeout`` seconds. The working folder and the environment are restored
-    after (the CLI sets ARMCAL_COMPILE). ARMCAL_TEST_PROCESS=1 runs each in a process of its own instead
+    after (a command may set variables). ARMCAL_TEST_PROCESS=1 runs each in a process of its own instead
     (docs/development.md)."""
     if os.environ.get("ARMCAL_TEST_PROCESS"):
         return armcal_process(*args, cwd=cwd, timeout=timeout)

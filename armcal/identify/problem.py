@@ -157,7 +157,7 @@ class KeyBlock:
     def weighted(self, theta: np.ndarray, position: np.ndarray, r: np.ndarray, J: np.ndarray, start: int) -> None:
         """Write the block's weighted residuals into r[start:start + size] and their Jacobian into the same rows of J;
         ``position[j]`` is theta's j-th parameter's column of J (-1: not wanted)."""
-        evaluated = current(self._function)  # its library once built in the background, the same for the whole call
+        evaluated = current(self._function, len(self._q))  # its library once built in the background, the same for the whole call
         if evaluated is not self._evaluated:
             self._evaluated, self._calls = evaluated, _CALLS.setdefault(evaluated, {})
         taken = position[self._jacobian_columns] >= 0

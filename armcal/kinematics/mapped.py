@@ -30,7 +30,7 @@ class Mapped:
         values as (N, 1, rows)). Per-point inputs are (N, k) arrays, row i point i's input."""
         count = next(len(x) for i, x in enumerate(inputs) if i not in self.shared)
         evaluated = self.evaluated  # one version for the whole call, whatever another thread swaps in meanwhile
-        landed = current(self.given)  # the library a background build made for it, once there: the same numbers
+        landed = current(self.given, count)  # the library a background build made for it, once there: the same numbers
         if landed is not evaluated.source:
             evaluated = self.evaluated = _Evaluated(landed, self.shared)
         function = evaluated.function

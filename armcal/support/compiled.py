@@ -11,16 +11,21 @@ another. Without a C compiler CasADi's virtual machine evaluates them.
 
 When the library is not built yet, $ARMCAL_COMPILE says what to do:
 
-- ``now`` (the default for armcal used as a library, and main's behaviour before
-  issue 18): compile at once and load the library; a compile that waits on another
+- ``auto`` (the default): evaluate with CasADi's virtual machine (the same numbers, bit for
+  bit: builder.FLAGS) and build the library in the background once the functions have done
+  the work that pays for the compile (``BREAK_EVEN``), counted across runs in the cache: a
+  short job (a test's, a one-off candidate structure's) is done before a compile would
+  have paid, a long one or a spec run again and again gets its library;
+- ``now``: compile at once and load the library; a compile that waits on another
   builder of the same cache waits for it rather than building the same file twice;
-- ``background`` (the default of the ``armcal`` command): evaluate with CasADi's
-  virtual machine at once (the same numbers, bit for bit: builder.FLAGS) and leave the compile to a
-  detached process (builder.py), so the first run pays no compile and later runs
-  load the library. A long first run goes on in machine code once the library has
-  landed (``current``): the real UR10's first closed loop took 76 s of CPU in the
-  virtual machine alone, 11-13 s so;
+- ``background``: evaluate with the virtual machine at once and leave the compile to a
+  detached process (builder.py) at once, so the first run pays no compile and later runs
+  load the library;
 - ``off``: never compile (the virtual machine only).
+
+In ``auto`` and ``background`` a long run goes on in machine code once the library has
+landed (``current``): the real UR10's first closed loop took 76 s of CPU in the
+virtual machine alone, 11-13 s so.
 
 Loading a library runs its code, so the cache is private: its folder is made 0700,
 each library is written 0700 with the SHA-256 of its bytes beside it
@@ -34,6 +39,7 @@ folder (``now``) or does not compile (``background``).
 from __future__ import annotations
 
 import atexit
+import contextlib
 import functools
 import hashlib
 import os
@@ -51,7 +57,15 @@ import casadi as ca
 from armcal import __version__
 from armcal.support import builder
 
-MODES = ("now", "background", "off")
+MODES = ("auto", "now", "background", "off")
+# ``auto`` builds a library once its functions have been evaluated BREAK_EVEN times each, counted in proportion to
+# their sizes (instructions): gcc -O3 then has cost what the machine code would have saved so far. Measured on the
+# shipped examples' eight libraries (2026-12-07): gcc took 180-370 us per instruction, the virtual machine 7-12 ns
+# per instruction and evaluation and machine code 2-5 times less, a break-even at 26,000-65,000 evaluations; both
+# sides scale with the processor's speed. Building at the break-even costs at most twice the better of never and at
+# once in hindsight (the ski-rental bound).
+BREAK_EVEN = 40_000
+WORK_RECORD = 4096  # bytes: a library's record of the work done in earlier runs (``.work``) is read and grown up to this
 LONG = 100_000  # characters of C: more than a second of gcc -O3 (a ball-bar problem's functions: 0.5-1 MB, 4-9 s)
 MESSAGE = "armcal: compiling the measurement functions for this robot and instrument{where} (once; later runs load them)"
 
@@ -62,11 +76,11 @@ def cache_dir() -> Path:
 
 
 def compile_mode() -> str:
-    """$ARMCAL_COMPILE: now (default), background or off (module docstring)."""
-    mode = os.environ.get("ARMCAL_COMPILE") or "now"
+    """$ARMCAL_COMPILE: auto (default), now, background or off (module docstring)."""
+    mode = os.environ.get("ARMCAL_COMPILE") or "auto"
     if mode not in MODES:
-        _say_once(f"armcal: ARMCAL_COMPILE={mode!r} is not one of {', '.join(MODES)}; compiling now")
-        return "now"
+        _say_once(f"armcal: ARMCAL_COMPILE={mode!r} is not one of {', '.join(MODES)}; compiling when it pays (auto)")
+        return "auto"
     return mode
 
 
@@ -94,6 +108,9 @@ def compiled(functions: list[ca.Function], identity: str | None = None) -> list[
         return _loaded(library, names)
     if library in _failed:  # a compile of it failed in this process: it would fail again
         return functions
+    if mode == "auto":
+        _awaited(functions, names, library, _pending(library, serialized, functions, names, compiler))
+        return functions
     source = _source(serialized, functions, names)
     if mode == "background":
         _start_builder(source, library, compiler)
@@ -118,24 +135,83 @@ _failed: set[Path] = set()  # libraries whose compile failed in this process (no
 CHECK = 0.5  # s between two looks for a library being built in the background (a look hashes it: about a millisecond)
 
 
-def current(function: ca.Function) -> ca.Function:
-    """``function``, or its compiled twin once the background builder has put its library in place."""
+def current(function: ca.Function, points: int = 0) -> ca.Function:
+    """``function``, or its compiled twin once the background builder has put its library in place; ``points``: the
+    evaluations the caller is about to make (``auto`` counts them towards the library's break-even)."""
     awaited = _awaiting.get(function)
-    return function if awaited is None else awaited[0].twin(awaited[1], function)
+    return function if awaited is None else awaited[0].twin(awaited[1], function, points)
+
+
+class _Pending:
+    """An ``auto`` library not started yet, one per library and process: what building it takes, and the work its
+    functions have done (instructions evaluated) here and in earlier runs (its .work record)."""
+
+    def __init__(self, library: Path, serialized: str, functions: list[ca.Function], names: list[str], compiler: str):
+        self.library, self.serialized, self.names, self.compiler = library, serialized, names, compiler
+        self.functions = [weakref.ref(f) for f in functions]  # the latest handed out: their source is the library's
+        self.sizes = [_instructions(f) for f in functions]
+        self.needed = BREAK_EVEN * sum(self.sizes)
+        self.done, self.earlier = 0.0, _work_done(library)
+        self.started = False
+
+    def count(self, index: int, points: int) -> None:
+        """Count ``points`` evaluations of function ``index``; at the break-even, start the build."""
+        self.done += points * self.sizes[index]
+        if self.started or self.done + self.earlier < self.needed:
+            return
+        self.started = True
+        functions = [f() for f in self.functions]
+        if all(f is not None for f in functions) and not builder.intact(self.library):
+            _start_builder(_source(self.serialized, functions, self.names), self.library, self.compiler)
+
+    def record(self) -> None:
+        """Add this process's work to the library's .work record, for the next run's count."""
+        if self.started or self.done <= 0:
+            return
+        record = _work_record(self.library)
+        with contextlib.suppress(OSError):
+            if record.exists() and record.stat().st_size >= WORK_RECORD:
+                return
+            handle = os.open(record, os.O_WRONLY | os.O_APPEND | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o600)
+            with os.fdopen(handle, "a", encoding="ascii") as stream:
+                stream.write(f"{self.done:.0f}\n")
+
+
+def _pending(library: Path, serialized: str, functions: list[ca.Function], names: list[str], compiler: str) -> _Pending:
+    """The library's _Pending in this process, pointed at the latest ``functions``."""
+    pending = _unbuilt.get(library)
+    if pending is None:
+        pending = _unbuilt[library] = _Pending(library, serialized, functions, names, compiler)
+    else:
+        pending.functions = [weakref.ref(f) for f in functions]
+    return pending
+
+
+_unbuilt: dict[Path, _Pending] = {}  # auto libraries of this process by path
+
+
+@atexit.register
+def _record_work() -> None:
+    for pending in _unbuilt.values():
+        pending.record()
 
 
 class _Awaited:
     """A library built in the background for functions the virtual machine evaluates meanwhile (by name: the
-    functions are _awaiting's weak keys)."""
+    functions are _awaiting's weak keys); ``pending``: an ``auto`` library, built once its work pays for it."""
 
-    def __init__(self, names: list[str], library: Path):
-        self.names, self.library = names, library
+    def __init__(self, names: list[str], library: Path, pending: _Pending | None = None):
+        self.names, self.library, self.pending = names, library, pending
         self.loaded: list[ca.Function] | None = None  # [] when the library cannot be loaded
         self.next_look = 0.0
         self.lock = threading.Lock()
 
-    def twin(self, index: int, function: ca.Function) -> ca.Function:
+    def twin(self, index: int, function: ca.Function, points: int = 0) -> ca.Function:
         with self.lock:
+            if self.pending is not None:
+                self.pending.count(index, points)
+                if not self.pending.started:
+                    return function
             if self.loaded is None and time.monotonic() >= self.next_look:
                 self.next_look = time.monotonic() + CHECK
                 if builder.intact(self.library):
@@ -147,14 +223,37 @@ class _Awaited:
             return self.loaded[index] if self.loaded else function
 
 
-def _awaited(functions: list[ca.Function], names: list[str], library: Path) -> None:
+def _awaited(functions: list[ca.Function], names: list[str], library: Path, pending: _Pending | None = None) -> None:
     """Remember each of ``functions`` as awaiting ``library``, for as long as it lives."""
-    awaited = _Awaited(names, library)
+    awaited = _Awaited(names, library, pending)
     for index, function in enumerate(functions):
         _awaiting[function] = (awaited, index)
 
 
 _awaiting: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # a function handed out -> (its library's _Awaited, index)
+
+
+def _instructions(function: ca.Function) -> int:
+    """The size of ``function``'s work per evaluation: its virtual machine's instructions."""
+    return max(int(function.n_instructions()), 1)
+
+
+def _work_record(library: Path) -> Path:
+    """Where the work done by earlier runs with ``library`` missing is recorded (instructions evaluated, a line a run)."""
+    return library.with_name(library.stem + ".work")
+
+
+def _work_done(library: Path) -> float:
+    """The work the library's record holds (0 when there is none, or it is not this user's alone)."""
+    record = _work_record(library)
+    try:
+        if builder.exposure(record):
+            return 0.0
+        with open(record, "rb") as stream:
+            text = stream.read(WORK_RECORD).decode("ascii", errors="replace")
+    except OSError:
+        return 0.0
+    return sum(float(line) for line in text.splitlines() if line.isdigit())
 
 
 def _loaded(library: Path, names: list[str]) -> list[ca.Function]:

@@ -1,8 +1,9 @@
 """The first run and every edit (issue 18): no wait for the compiler, no recompile for a value edit, same numbers.
 
 The compiled-function cache is keyed on the generated C source (support/compiled.py). With
-ARMCAL_COMPILE=background (the armcal command's default) a cache miss is evaluated by CasADi's
-virtual machine while a detached process (support/builder.py) builds the library. Every test
+ARMCAL_COMPILE=background a cache miss is evaluated by CasADi's virtual machine while a detached
+process (support/builder.py) builds the library; with auto (the default) the detached build starts
+once the work done, in this run and earlier ones, has cost what the compile costs. Every test
 uses a private, empty cache (ARMCAL_CACHE in tmp_path) and a compiler wrapper that logs each
 compile, so what is compiled, and how often, is counted rather than assumed.
 """
@@ -46,6 +47,7 @@ def private(tmp_path, monkeypatch):
     monkeypatch.delenv("ARMCAL_COMPILE", raising=False)
     cache._started.clear()
     cache._say_once.cache_clear()
+    monkeypatch.setattr(cache, "_unbuilt", {})  # this process's auto libraries: none yet, as in a new process
     return folder, log
 
 
@@ -144,6 +146,75 @@ def test_a_cold_start_does_not_wait_for_the_compiler(private, capsys, monkeypatc
     assert compiles(log) == 2
     print(f"background call: {cpu:.3f} s CPU, {wall:.3f} s wall; compile now: {waited:.2f} s CPU")
     assert cpu < 0.2 * waited, (cpu, wall, waited)  # the compile's CPU time is not the caller's
+
+
+def instructions_evaluated(functions, points) -> int:
+    """The work of ``points`` evaluations of each of ``functions``, counted as CasADi's virtual machine runs it: its
+    instruction list (Function.instructions), one entry an instruction (the oracle of compiled._instructions)."""
+    return points * sum(len([f.instruction_id(k) for k in range(f.n_instructions())]) for f in functions)
+
+
+def test_auto_compiles_once_the_work_done_pays_for_the_compile(private, monkeypatch):
+    """auto (the default): no compile for a job shorter than the break-even; the evaluation that reaches it starts a
+    background build, and the job goes on in the library it lands, with the same numbers."""
+    folder, log = private
+    monkeypatch.setattr(cache, "BREAK_EVEN", 50)  # the measured 40,000 evaluations of each function, scaled down
+    functions = functions_of(ROOT / "examples" / "goswami_ballbar" / "spec.yaml")
+    assert cache.compiled(functions) is functions
+    needed = instructions_evaluated(functions, 50)
+    first = functions[0]
+    per_point = instructions_evaluated([first], 1)
+    below = (needed - 1) // per_point  # evaluations of the first function that stay below the break-even
+    assert cache.current(first, below) is first
+    time.sleep(cache.CHECK)
+    assert not any(folder.glob("build-*")) and compiles(log) == 0 and not list(folder.glob("*.so"))
+    assert cache.current(first, 1) is first  # reaches it: the build starts, the virtual machine goes on meanwhile
+    wait_for_builds(folder)
+    assert compiles(log) == 1
+    time.sleep(cache.CHECK)
+    twin = cache.current(first, 1)
+    assert twin.class_name() == "External"
+    q = np.linspace(-1, 1, first.size1_in(0))
+    x, theta = np.zeros(first.size1_in(1)), np.linspace(0.1, 0.9, first.size1_in(2))
+    for a, b in zip(first(q, x, theta), twin(q, x, theta)):
+        np.testing.assert_array_equal(np.array(a), np.array(b))
+
+
+def test_auto_counts_the_work_of_earlier_runs_and_keeps_the_count_bounded(private, monkeypatch):
+    """Runs too short to pay for a compile each add their work to the library's record (at exit); the run whose work
+    with the record's reaches the break-even builds. A record that is not the user's alone, garbage lines and a full
+    record count for nothing more."""
+    folder, log = private
+    monkeypatch.setattr(cache, "BREAK_EVEN", 50)
+    functions = functions_of(ROOT / "examples" / "theodolite" / "spec.yaml")
+    needed = instructions_evaluated(functions, 50)
+    run = instructions_evaluated([functions[0]], 1)
+
+    def short_run(points):  # a process: compiled, evaluations, exit
+        cache._unbuilt.clear()
+        cache._started.clear()
+        assert cache.compiled(functions) is functions
+        cache.current(functions[0], points)
+        cache._record_work()
+
+    third = needed // run // 3
+    short_run(third)
+    short_run(third)
+    record = next(folder.glob("*.work"))
+    assert record.read_text().split() == [str(third * run)] * 2 and compiles(log) == 0
+    record.chmod(0o620)  # group-writable: someone else could have written it
+    assert cache._work_done(folder / (record.stem + ".so")) == 0
+    record.chmod(0o600)
+    with record.open("a") as stream:
+        stream.write("garbage\n-5\n")
+    assert cache._work_done(folder / (record.stem + ".so")) == 2 * third * run
+    short_run(-(-needed // run) - 2 * third)  # the rest, rounded up: this run builds
+    wait_for_builds(folder)
+    assert compiles(log) == 1 and len(list(folder.glob("*.so"))) == 1
+    record.write_text("1\n" * (cache.WORK_RECORD // 2))
+    (folder / (record.stem + ".so")).unlink()
+    short_run(1)
+    assert record.stat().st_size == cache.WORK_RECORD  # full: not grown
 
 
 def test_a_first_run_goes_on_in_machine_code_once_its_library_lands(private, monkeypatch):

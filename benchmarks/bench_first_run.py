@@ -7,7 +7,8 @@ on one private, initially empty compiled-code cache (ARMCAL_CACHE):
   edited  the spec with its device noise changed by 1 % (0.0084 -> 0.008484 on the ball-bar).
 "before" is the armcal of git revision --before (default: main), extracted with `git archive`
 into a temporary folder; "after" is this checkout. Each runs with the environment as given
-(ARMCAL_COMPILE unset: the command's default). CPU is user + system time of the armcal process
+(ARMCAL_COMPILE unset: the command's default; since auto, a library is built only once the work done with it pays
+for the compile, so a warm run may still evaluate in the virtual machine). CPU is user + system time of the armcal process
 and of the children it waited for (main's compiler runs): a background build is not counted
 there; its own column says how long after the run the library was in place (the next run
 waits for nothing). Before each timed run the background builds of the previous one are

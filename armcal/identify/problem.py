@@ -342,7 +342,7 @@ def _held_by_nominal(function: ca.Function, Q: np.ndarray, X: np.ndarray, measur
     """Joint values (N, n) nearest ``Q`` at which the model at ``theta`` reads a key's ``measured`` contact readings
     (``function``: the key's readings and Jacobian); a pose it cannot hold within the limits keeps its recorded values."""
     def read(Q: np.ndarray) -> np.ndarray:
-        return np.array(function.map(len(Q))(Q.T, X.T, theta)[0]).T
+        return np.array(current(function, len(Q)).map(len(Q))(Q.T, X.T, theta)[0]).T
 
     moved, held = held_in_contact(read, Q, measured, limits)
     return np.where(held[:, None], moved, Q)

@@ -40,8 +40,8 @@ class IKResult:
 
 def error_function(model: KinematicModel, frame: str | None = None, width: int = 12) -> ca.Function:
     """delta(q, p, goal) and d delta / d q; goal of ``width`` 12 [p*, x*, y*, z*] (pose), 6 [p*, z*] (point + axis) or
-    3 [p*] (a point, any orientation). The solvers build and compile it for each call (``compiled_error``); a caller
-    that solves many times may build it once and pass it as ``error``."""
+    3 [p*] (a point, any orientation). The solvers build it for each call (``compiled_error``); a caller that solves
+    many times may build it once and pass it as ``error``."""
     q = ca.SX.sym("q", model.dof)
     p = ca.SX.sym("p", len(model.parameters))
     T = model.fk(q, p) if frame is None else model.targets[frame](q, p)
@@ -53,8 +53,9 @@ def error_function(model: KinematicModel, frame: str | None = None, width: int =
 
 
 def compiled_error(model: KinematicModel, frame: str | None, width: int, error: ca.Function | None) -> ca.Function:
-    """``error``, else ``error_function`` in machine code (support/compiled.py: bit for bit the virtual machine's
-    numbers, about nine times as fast; one library per robot, frame and goal width, kept across runs)."""
+    """``error``, else ``error_function`` through support/compiled.py: in machine code once its library is built (bit
+    for bit the virtual machine's numbers, about nine times as fast; one library per robot, frame and goal width, kept
+    across runs, built once the solves' work pays for it)."""
     return error if error is not None else compiled([error_function(model, frame, width)])[0]
 
 

@@ -12,6 +12,7 @@ sigma_p per coordinate. This model is never the one fitted.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -66,11 +67,17 @@ class TrueRobot:
         """True tool poses (N, 4, 4) at joint readings Q (N, n)."""
         return self._poses(Q, extras, self.kinematics.dof, lambda q: self.kinematics.tool_poses(q, self.p))
 
+    @cached_property
+    def _joint_deviation(self):
+        """The hidden effects' joint deviations and length factor (effects.joint_deviation_function), built once a
+        robot: a campaign carries its targets through the chain at every key."""
+        return self.effects.joint_deviation_function(self.kinematics)
+
     def _poses(self, Q: np.ndarray, extras: dict, link: int, nominal) -> np.ndarray:
         """A frame fixed on ``link``, carried by the true chain: its nominal offset from the link frame kept."""
         Q = np.atleast_2d(Q)
         X = extras_matrix(extras, len(Q), self.kinematics.dof)
-        deviation, factor = self.effects.joint_deviation_function(self.kinematics).map(len(Q))(Q.T, X.T, self.p, self.effects.values())
+        deviation, factor = self._joint_deviation.map(len(Q))(Q.T, X.T, self.p, self.effects.values())
         Q_true = Q + self.encoder_errors + np.array(deviation).T
         frames = self.kinematics.link_frames_batch(Q_true, self.p)
         scale = np.array(factor).ravel()

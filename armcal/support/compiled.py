@@ -25,7 +25,7 @@ When the library is not built yet, $ARMCAL_COMPILE says what to do:
 
 In ``auto`` and ``background`` a long run goes on in machine code once the library has
 landed (``current``): the real UR10's first closed loop took 76 s of CPU in the
-virtual machine alone, 11-13 s so.
+virtual machine alone, 11-13 s so with ``background``.
 
 Loading a library runs its code, so the cache is private: its folder is made 0700,
 each library is written 0700 with the SHA-256 of its bytes beside it
@@ -33,7 +33,7 @@ each library is written 0700 with the SHA-256 of its bytes beside it
 and the folder belong to this user, are writable by no one else and the hash matches.
 A library that fails the check (truncated, garbage, replaced) is rebuilt; a cache
 folder that fails it is not used: that process compiles into a private temporary
-folder (``now``) or does not compile (``background``).
+folder (``now``) or does not compile (``auto``, ``background``).
 """
 
 from __future__ import annotations
@@ -44,6 +44,7 @@ import functools
 import hashlib
 import os
 import shutil
+import stat
 import subprocess
 import sys
 import tempfile
@@ -86,7 +87,7 @@ def compile_mode() -> str:
 
 def compiled(functions: list[ca.Function], identity: str | None = None) -> list[ca.Function]:
     """The same functions, compiled to machine code, or as given (evaluated by CasADi's virtual machine) when
-    there is no compiler, $ARMCAL_COMPILE is off, or it is background and the library is still being built.
+    there is no compiler, $ARMCAL_COMPILE is off, or it is auto or background and the library is not built yet.
 
     The library is keyed on the generated C source, or on ``identity`` (a canonical description of what
     defines the functions) when one is given."""
@@ -143,78 +144,88 @@ def current(function: ca.Function, points: int = 0) -> ca.Function:
 
 
 class _Pending:
-    """An ``auto`` library not started yet, one per library and process: what building it takes, and the work its
-    functions have done (instructions evaluated) here and in earlier runs (its .work record)."""
+    """An ``auto`` library not built yet, one per library and process: what building it takes, and the work its
+    functions have done (instructions evaluated) here and in earlier runs (its .work record). _COUNTING guards it."""
 
-    def __init__(self, library: Path, serialized: str, functions: list[ca.Function], names: list[str], compiler: str):
+    def __init__(self, library: Path, serialized: str, sizes: list[int], names: list[str], compiler: str):
         self.library, self.serialized, self.names, self.compiler = library, serialized, names, compiler
-        self.functions = [weakref.ref(f) for f in functions]  # the latest handed out: their source is the library's
-        self.sizes = [_instructions(f) for f in functions]
-        self.needed = BREAK_EVEN * sum(self.sizes)
+        self.sizes, self.needed = sizes, BREAK_EVEN * sum(sizes)
         self.done, self.earlier = 0.0, _work_done(library)
         self.started = False
 
-    def count(self, index: int, points: int) -> None:
-        """Count ``points`` evaluations of function ``index``; at the break-even, start the build."""
+    def count(self, index: int, points: int, functions: list[weakref.ref]) -> None:
+        """Count ``points`` evaluations of function ``index``; at the break-even, start the build from ``functions``
+        (the ones being evaluated: their source is the library's)."""
         self.done += points * self.sizes[index]
         if self.started or self.done + self.earlier < self.needed:
             return
-        self.started = True
-        functions = [f() for f in self.functions]
-        if all(f is not None for f in functions) and not builder.intact(self.library):
-            _start_builder(_source(self.serialized, functions, self.names), self.library, self.compiler)
+        alive = [f() for f in functions]
+        if any(f is None for f in alive):  # a set being dropped: the next evaluation of a live one builds
+            return
+        self.started = True  # one attempt a process, as _start_builder's
+        if builder.intact(self.library) or _start_builder(_source(self.serialized, alive, self.names), self.library, self.compiler):
+            with contextlib.suppress(OSError):
+                _work_record(self.library).unlink(missing_ok=True)  # counted; a build that fails is tried after another break-even
 
     def record(self) -> None:
-        """Add this process's work to the library's .work record, for the next run's count."""
-        if self.started or self.done <= 0:
+        """Add this process's work to the library's .work record, for the next run's count; the record never grows
+        past WORK_RECORD bytes, and one that is not this user's alone is replaced."""
+        if self.started or self.done <= 0 or self.library.exists():
             return
-        record = _work_record(self.library)
+        record, line = _work_record(self.library), f"{self.done:.0f}\n".encode()
         with contextlib.suppress(OSError):
-            if record.exists() and record.stat().st_size >= WORK_RECORD:
-                return
-            handle = os.open(record, os.O_WRONLY | os.O_APPEND | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o600)
-            with os.fdopen(handle, "a", encoding="ascii") as stream:
-                stream.write(f"{self.done:.0f}\n")
+            if os.path.lexists(record) and builder.exposure(record):
+                record.unlink()
+            handle = os.open(record, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o600)
+            try:
+                os.fchmod(handle, 0o600)
+                if os.fstat(handle).st_size + len(line) <= WORK_RECORD:
+                    os.write(handle, line)
+            finally:
+                os.close(handle)
 
 
-def _pending(library: Path, serialized: str, functions: list[ca.Function], names: list[str], compiler: str) -> _Pending:
-    """The library's _Pending in this process, pointed at the latest ``functions``."""
-    pending = _unbuilt.get(library)
-    if pending is None:
-        pending = _unbuilt[library] = _Pending(library, serialized, functions, names, compiler)
-    else:
-        pending.functions = [weakref.ref(f) for f in functions]
-    return pending
-
-
+_COUNTING = threading.Lock()  # the _Pending of every library: several problems and threads count into one
 _unbuilt: dict[Path, _Pending] = {}  # auto libraries of this process by path
 
 
 @atexit.register
 def _record_work() -> None:
+    with _COUNTING:
+        for pending in list(_unbuilt.values()):
+            pending.record()
+
+
+def _forget_work() -> None:
+    """In a forked child: the parent's work is the parent's to record."""
+    global _COUNTING
+    _COUNTING = threading.Lock()
     for pending in _unbuilt.values():
-        pending.record()
+        pending.done = 0.0
+
+
+os.register_at_fork(after_in_child=_forget_work)
 
 
 class _Awaited:
     """A library built in the background for functions the virtual machine evaluates meanwhile (by name: the
     functions are _awaiting's weak keys); ``pending``: an ``auto`` library, built once its work pays for it."""
 
-    def __init__(self, names: list[str], library: Path, pending: _Pending | None = None):
+    def __init__(self, functions: list[ca.Function], names: list[str], library: Path, pending: _Pending | None = None):
         self.names, self.library, self.pending = names, library, pending
+        self.functions = [weakref.ref(f) for f in functions] if pending is not None else []
         self.loaded: list[ca.Function] | None = None  # [] when the library cannot be loaded
         self.next_look = 0.0
         self.lock = threading.Lock()
 
     def twin(self, index: int, function: ca.Function, points: int = 0) -> ca.Function:
-        with self.lock:
-            if self.pending is not None:
-                self.pending.count(index, points)
-                if not self.pending.started:
-                    return function
+        if self.pending is not None:
+            with _COUNTING:
+                self.pending.count(index, points, self.functions)
+        with self.lock:  # also before this process starts a build: another process (a pool's worker) may have built it
             if self.loaded is None and time.monotonic() >= self.next_look:
                 self.next_look = time.monotonic() + CHECK
-                if builder.intact(self.library):
+                if self.library.exists() and builder.intact(self.library):
                     try:
                         self.loaded = _loaded(self.library, self.names)
                     except RuntimeError:  # e.g. a cache on a noexec mount: the run goes on as it started
@@ -225,9 +236,17 @@ class _Awaited:
 
 def _awaited(functions: list[ca.Function], names: list[str], library: Path, pending: _Pending | None = None) -> None:
     """Remember each of ``functions`` as awaiting ``library``, for as long as it lives."""
-    awaited = _Awaited(names, library, pending)
+    awaited = _Awaited(functions, names, library, pending)
     for index, function in enumerate(functions):
         _awaiting[function] = (awaited, index)
+
+
+def _pending(library: Path, serialized: str, functions: list[ca.Function], names: list[str], compiler: str) -> _Pending:
+    """The library's _Pending in this process."""
+    with _COUNTING:
+        if library not in _unbuilt:
+            _unbuilt[library] = _Pending(library, serialized, [_instructions(f) for f in functions], names, compiler)
+        return _unbuilt[library]
 
 
 _awaiting: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # a function handed out -> (its library's _Awaited, index)
@@ -244,16 +263,18 @@ def _work_record(library: Path) -> Path:
 
 
 def _work_done(library: Path) -> float:
-    """The work the library's record holds (0 when there is none, or it is not this user's alone)."""
-    record = _work_record(library)
+    """The work the library's record holds: its complete lines' numbers, within its first WORK_RECORD bytes (0 when
+    there is none, or it is not a regular file of this user's alone)."""
     try:
-        if builder.exposure(record):
-            return 0.0
-        with open(record, "rb") as stream:
-            text = stream.read(WORK_RECORD).decode("ascii", errors="replace")
+        handle = os.open(_work_record(library), os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
     except OSError:
         return 0.0
-    return sum(float(line) for line in text.splitlines() if line.isdigit())
+    with os.fdopen(handle, "rb") as stream:
+        info = os.fstat(handle)
+        if not stat.S_ISREG(info.st_mode) or info.st_uid != os.geteuid() or info.st_mode & 0o022:
+            return 0.0
+        lines = stream.read(WORK_RECORD).decode("ascii", errors="replace").split("\n")[:-1]  # the last: unfinished or ''
+    return sum(float(line) for line in lines if line.isdigit())
 
 
 def _loaded(library: Path, names: list[str]) -> list[ca.Function]:
@@ -286,30 +307,34 @@ def _generated(functions: list[ca.Function], names: list[str]) -> str:
     return generator.dump()
 
 
-def _start_builder(source: str, library: Path, compiler: str) -> None:
-    """Leave the build of ``library`` to a detached process (once per library and process); say so once.
+def _start_builder(source: str, library: Path, compiler: str) -> bool:
+    """Leave the build of ``library`` to a detached process (once per library and process); say so once. Whether a
+    builder started (or had started).
 
     ``sh`` starts the builder in the background and exits at once: the builder is nobody's child in this
     process (it is not waited for, its CPU time is not this process's), in a session of its own, so
     neither the end of this process nor Ctrl-C on it stops the build."""
     if library in _started:
-        return
-    _started.add(library)
-    work = Path(tempfile.mkdtemp(prefix="build-", dir=library.parent))  # 0700
-    _write_source(work / builder.SOURCE, source)
+        return True
+    _started.add(library)  # one attempt a process: one that failed would fail again
     package_root = str(Path(__file__).resolve().parents[2])
     code = "import sys; sys.path.insert(0, sys.argv[1]); from armcal.support.builder import main; main(sys.argv[2:])"
-    command = [sys.executable, "-I", "-c", code, package_root, str(work), str(library), compiler]
+    work = None
     try:
+        work = Path(tempfile.mkdtemp(prefix="build-", dir=library.parent))  # 0700
+        _write_source(work / builder.SOURCE, source)
+        command = [sys.executable, "-I", "-c", code, package_root, str(work), str(library), compiler]
         subprocess.run(
             ["/bin/sh", "-c", '"$@" </dev/null >/dev/null 2>&1 &', "armcal-builder", *command],
             check=True, start_new_session=True, stdin=subprocess.DEVNULL,
         )
-    except (OSError, subprocess.CalledProcessError):
-        shutil.rmtree(work, ignore_errors=True)
-        return
+    except (OSError, subprocess.CalledProcessError):  # a full disk, a removed cache: the run goes on as it is
+        if work is not None:
+            shutil.rmtree(work, ignore_errors=True)
+        return False
     if len(source) > LONG:
         _say_once(MESSAGE.format(where=" in the background"))
+    return True
 
 
 _started: set[Path] = set()
@@ -317,7 +342,7 @@ _started: set[Path] = set()
 
 def _private_folder(mode: str = "now") -> Path | None:
     """The cache folder, created 0700; when the cache cannot be trusted, a private temporary folder (``now``) or
-    None (``background``: evaluate without compiling)."""
+    None (``auto``, ``background``: evaluate without compiling)."""
     folder = cache_dir()
     try:
         _make_private(folder)

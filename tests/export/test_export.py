@@ -191,7 +191,7 @@ def test_compensated_commands_recover_the_commands_that_made_the_targets(tmp_pat
     with open(tmp_path / "commands.csv") as stream:
         rows = list(csv.DictReader(stream))
     # the same rows, bit for bit: the second process may evaluate with the compiled library where the first used
-    # CasADi's virtual machine (ARMCAL_COMPILE=background), which compute the same numbers
+    # CasADi's virtual machine (ARMCAL_COMPILE=auto builds it once the work pays), which compute the same numbers
     assert rows[:-1] == written[:-1]
     assert [r["name"] for r in rows] == [f"t{i}" for i in range(20)] + ["far"]
     assert rows[-1]["status"].startswith("unreachable")

@@ -210,11 +210,31 @@ def test_auto_counts_the_work_of_earlier_runs_and_keeps_the_count_bounded(privat
     assert cache._work_done(folder / (record.stem + ".so")) == 2 * third * run
     short_run(-(-needed // run) - 2 * third)  # the rest, rounded up: this run builds
     wait_for_builds(folder)
-    assert compiles(log) == 1 and len(list(folder.glob("*.so"))) == 1
-    record.write_text("1\n" * (cache.WORK_RECORD // 2))
+    assert compiles(log) == 1 and len(list(folder.glob("*.so"))) == 1 and not record.exists()  # counted, removed
+    near_full = "1\n" * (cache.WORK_RECORD // 2 - 1)  # 2 bytes short of the bound
+    record.write_text(near_full)
     (folder / (record.stem + ".so")).unlink()
     short_run(1)
-    assert record.stat().st_size == cache.WORK_RECORD  # full: not grown
+    assert record.read_text() == near_full and run >= 100  # its line of 4 bytes or more would pass the bound: not written
+    record.write_text("5\n7")  # a line cut short is not counted
+    assert cache._work_done(folder / (record.stem + ".so")) == 5
+
+
+def test_auto_counts_what_a_problem_evaluates(private, monkeypatch):
+    """A problem's evaluation counts each key's samples (the data's, grouped by key) times its function's instructions."""
+    folder, log = private
+    spec_path = ROOT / "examples" / "theodolite" / "spec.yaml"
+    problem, start = problem_of(spec_path)
+    spec = load_spec(spec_path).spec
+    device = device_model(spec)
+    data = device.prepare(read_measurements(spec_path.parent / spec.data.calibration, spec))
+    (pending,) = cache._unbuilt.values()
+    samples = sorted([len(rows) for rows in data.groups().values()] + [1] * len(device.pseudo_observations()))
+    assert sorted(len(block._q) for block in problem.blocks) == samples  # a block a key, its samples the data's
+    done = pending.done
+    for _ in range(3):
+        problem.evaluate(start)
+    assert pending.done - done == 3 * sum(len(b._q) * cache._instructions(b._function) for b in problem.blocks)
 
 
 def test_a_first_run_goes_on_in_machine_code_once_its_library_lands(private, monkeypatch):

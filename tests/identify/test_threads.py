@@ -110,9 +110,10 @@ def test_a_block_whose_channels_read_every_sample_gives_the_per_channel_numbers(
     assert np.array_equal(r1, r2) and np.array_equal(J1, J2)
 
 
-def test_problems_of_one_function_share_its_calls_and_keep_their_own_numbers():
+def test_problems_of_one_function_share_its_calls_and_keep_their_own_numbers(monkeypatch):
     """Two problems of the same compiled functions (a diagnosis's folds) share the mapped calls (KeyBlock._mapped):
     evaluated in turn at different points, each gives the numbers it gives alone."""
+    monkeypatch.setenv("ARMCAL_COMPILE", "now")  # the machine code's calls, as a warm run has them
     s = setup(SPECS / "puma560_theodolite.yaml", [("count: 150\n  seed: 3", "count: 600\n  seed: 3")])
     data = measure(s.kinematics, s.device, s.plans[0], None, None)
     functions = {}
@@ -129,9 +130,10 @@ def test_problems_of_one_function_share_its_calls_and_keep_their_own_numbers():
             assert np.array_equal(r, r_here) and np.array_equal(J, J_here)
 
 
-def test_problems_of_one_function_evaluated_by_two_callers_at_once_keep_their_own_numbers():
+def test_problems_of_one_function_evaluated_by_two_callers_at_once_keep_their_own_numbers(monkeypatch):
     """Two callers' threads (a Dask worker's tasks of one study share its compiled functions) evaluating problems of
     the same functions at the same time, at different points: each gives the numbers it gives alone, bit for bit."""
+    monkeypatch.setenv("ARMCAL_COMPILE", "now")  # the machine code's calls, as a warm run has them
     s = setup(SPECS / "puma560_theodolite.yaml", [("count: 150\n  seed: 3", "count: 600\n  seed: 3")])
     data = measure(s.kinematics, s.device, s.plans[0], None, None)
     functions = {}

@@ -61,10 +61,11 @@ from armcal.support import builder
 MODES = ("auto", "now", "background", "off")
 # ``auto`` builds a library once its functions have been evaluated BREAK_EVEN times each, counted in proportion to
 # their sizes (instructions): gcc -O3 then has cost what the machine code would have saved so far. Measured on the
-# shipped examples' eight libraries (2026-12-07): gcc took 180-370 us per instruction, the virtual machine 7-12 ns
-# per instruction and evaluation and machine code 2-5 times less, a break-even at 26,000-65,000 evaluations; both
-# sides scale with the processor's speed. Building at the break-even costs at most twice the better of never and at
-# once in hindsight (the ski-rental bound).
+# shipped examples' libraries (2026-12-07, benchmarks/bench_break_even.py): gcc took 180-540 us per instruction, the
+# virtual machine 7-12 ns per instruction and evaluation and machine code 2-5 times less, a break-even at 26,000-
+# 88,000 evaluations; both sides scale with the processor's speed. Building at the break-even costs at most twice the
+# better of never and at once in hindsight (the ski-rental bound); the low end of the range builds a spec run again
+# and again a little sooner.
 BREAK_EVEN = 40_000
 WORK_RECORD = 4096  # bytes: a library's record of the work done in earlier runs (``.work``) is read and grown up to this
 LONG = 100_000  # characters of C: more than a second of gcc -O3 (a ball-bar problem's functions: 0.5-1 MB, 4-9 s)

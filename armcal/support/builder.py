@@ -64,8 +64,9 @@ def processor() -> str:
     return "\n".join(dict.fromkeys(described)) or f"{platform.machine()} {platform.processor()}"
 
 
-def exposure(path: Path) -> str | None:
-    """Why someone other than this user could have written ``path``, or None when no one could."""
+def exposure(path: Path | int) -> str | None:
+    """Why someone other than this user could have written ``path`` (or the open file descriptor), or None when no one
+    could."""
     info = os.stat(path)
     if info.st_uid != os.geteuid():
         return f"belongs to user id {info.st_uid}"

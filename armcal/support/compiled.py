@@ -226,7 +226,7 @@ class _Awaited:
         with self.lock:  # also before this process starts a build: another process (a pool's worker) may have built it
             if self.loaded is None and time.monotonic() >= self.next_look:
                 self.next_look = time.monotonic() + CHECK
-                if self.library.exists() and builder.intact(self.library):
+                if builder.intact(self.library):
                     try:
                         self.loaded = _loaded(self.library, self.names)
                     except RuntimeError:  # e.g. a cache on a noexec mount: the run goes on as it started
@@ -271,8 +271,7 @@ def _work_done(library: Path) -> float:
     except OSError:
         return 0.0
     with os.fdopen(handle, "rb") as stream:
-        info = os.fstat(handle)
-        if not stat.S_ISREG(info.st_mode) or info.st_uid != os.geteuid() or info.st_mode & 0o022:
+        if not stat.S_ISREG(os.fstat(handle).st_mode) or builder.exposure(handle):
             return 0.0
         lines = stream.read(WORK_RECORD).decode("ascii", errors="replace").split("\n")[:-1]  # the last: unfinished or ''
     return sum(float(line) for line in lines if line.isdigit())

@@ -5,12 +5,12 @@ import json
 import os
 import re
 import shutil
-import time
 from pathlib import Path
 
 import matplotlib
 import pytest
 from conftest import HANG, ROOT, TESTS, armcal_process
+from test_first_run import wait_for_builds
 
 from armcal.support.errors import UserError
 from armcal.report.context import certificate_context
@@ -174,10 +174,7 @@ def test_two_runs_of_one_spec_give_the_same_artifacts_but_the_creation_time(exam
     meanwhile), the second the compiled library: the same numbers, bit for bit."""
     environment = {**os.environ, "ARMCAL_CACHE": str(tmp_path / "cache"), "ARMCAL_COMPILE": "background"}
     assert armcal_process("run", example, "--out", tmp_path / "one", "--no-pdf", env=environment).returncode == 0
-    deadline = time.monotonic() + 4 * HANG  # the builds, one after another (a hang guard only)
-    while not list((tmp_path / "cache").glob("*.so")) or list((tmp_path / "cache").glob("build-*")):
-        assert time.monotonic() < deadline, "the background build did not finish"
-        time.sleep(0.1)
+    wait_for_builds(tmp_path / "cache", timeout=4 * HANG)  # the builds, one after another (a hang guard only)
     assert armcal_process("run", "./ex/../ex/spec.yaml", "--out", "two", "--no-pdf", cwd=tmp_path, env=environment).returncode == 0
     one, two = tmp_path / "one", tmp_path / "two"
     svgs = sorted(p.name for p in one.glob("*.svg"))

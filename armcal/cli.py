@@ -16,6 +16,7 @@ import typer
 from typer.core import TyperArgument, TyperCommand
 
 from armcal import __version__
+from armcal.support.process_end import end_without_final_collection
 from armcal.support.errors import UserError
 
 app = typer.Typer(
@@ -63,6 +64,7 @@ def main(
     version: Annotated[bool, typer.Option("--version", callback=_print_version, is_eager=True, help="Print armcal's version and exit.")] = False,
 ) -> None:
     """Kinematic calibration of robot arms."""
+    end_without_final_collection()  # one command per process: its objects go back to the system at exit
 
 
 SpecArg = Annotated[Path, typer.Argument(help="Calibration spec (YAML).", metavar="SPEC", show_default=False)]

@@ -16,6 +16,7 @@ from multiprocessing import get_context
 from typing import Any
 
 from armcal.support.errors import UserError
+from armcal.support.process_end import end_without_final_collection
 from armcal.identify.threads import limit, processors
 
 Progress = Callable[[Any], None]  # called with each result as it arrives
@@ -48,7 +49,7 @@ def run_tasks(
         return results
     results: list = [None] * len(tasks)
     shares = max(1, processors() // workers)  # each worker's threads (identify/threads.py): its part of the processors
-    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=limit, initargs=(shares,)) as pool:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=_start_worker, initargs=(shares,)) as pool:
         position = {pool.submit(function, task): i for i, task in enumerate(tasks)}
         try:
             for future in as_completed(position):
@@ -58,6 +59,12 @@ def run_tasks(
             pool.shutdown(cancel_futures=True)  # a failed task stops the rest at once
             raise
     return results
+
+
+def _start_worker(shares: int) -> None:
+    """A local worker process: its share of the processors' threads, and no last collection at its exit."""
+    limit(shares)
+    end_without_final_collection()
 
 
 SCHEDULER_ADDRESS = re.compile(r"(?:(?:tcp|tls|ws|wss)://)?(?:\[(?P<ipv6>[0-9A-Fa-f:.]+)\]|(?P<host>[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?)):(?P<port>\d{1,5})")

@@ -95,6 +95,17 @@ def test_a_truth_record_that_is_not_one(workspace, content):
     refused(armcal("run", workspace / "spec.yaml", "--no-pdf"), "truth.json", phrase)
 
 
+def test_a_truth_record_that_is_not_one_is_refused_before_the_fit(workspace, monkeypatch):
+    """Every input is read, and refused, before the work: a broken record ends the run before its fit, not after."""
+    import armcal.commands.run as pipeline
+    from armcal.support.errors import UserError
+
+    (workspace / "truth.json").write_text("[]")
+    monkeypatch.setattr(pipeline, "identify_and_diagnose", lambda *args: pytest.fail("the fit ran before the inputs were all read"))
+    with pytest.raises(UserError, match="truth.json: not a truth record"):
+        pipeline.run(workspace / "spec.yaml", workspace / "out", pdf=False)
+
+
 def test_import_ipa_of_an_empty_file_or_into_a_spec_without_a_tracker(tmp_path):
     empty = tmp_path / "empty.csv"
     empty.write_text("")

@@ -78,17 +78,17 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
         for data in filter(None, (calibration, validation)):
             check_readable(device, data)
         check_stations(device, calibration)
+        validation_path = folder / spec.data.validation if spec.data.validation else None
+        truth = find_truth(calibration_path)  # the inputs all read, and a record that is not one refused, before the work
+        simulated = (truth is not None, validation_path is not None and find_truth(validation_path) is not None)
     with stage("identifying the robot and diagnosing the residuals"):
         calibrated = identify_and_diagnose(spec, kinematics, device, raw, calibration, validation)
-    truth = find_truth(calibration_path)
     identifier = run_id(inputs + ([calibration_path.parent / "truth.json"] if truth else []))
     with stage("evaluating the tasks (grid, ISO 9283 cube)"):
         tasks = evaluation_tasks(spec, kinematics, calibrated, truth)
     with stage("drawing the evidence"):
         found = evidence(loaded, kinematics, device, calibrated, calibration)
         plots = {name: stamp_svg(svg, identifier) for name, svg in draw_plots(Evidence.model_validate(found), certificate_unit(spec)).items()}
-    validation_path = folder / spec.data.validation if spec.data.validation else None
-    simulated = (truth is not None, validation_path is not None and find_truth(validation_path) is not None)
     step = (spec.simulate or Simulate()).time_step
     warnings = [w for w in (
         simulated_times(calibration_path, raw.extras.get("t"), step, truth),

@@ -69,16 +69,16 @@ def _run(loaded, inputs: list[Path], user_templates: Path | None, out_dir: Path,
     spec = loaded.spec
     folder = loaded.path.parent
     calibration_path = folder / spec.data.calibration
+    validation_path = folder / spec.data.validation if spec.data.validation else None
     kinematics = compile_robot(spec.robot.chain())
     with stage("reading the data"):
         raw = read_measurements(calibration_path, spec)
         device = fitted_device(spec, raw)
         calibration = device.prepare(raw)
-        validation = device.prepare(read_measurements(folder / spec.data.validation, spec)) if spec.data.validation else None
+        validation = device.prepare(read_measurements(validation_path, spec)) if validation_path else None
         for data in filter(None, (calibration, validation)):
             check_readable(device, data)
         check_stations(device, calibration)
-        validation_path = folder / spec.data.validation if spec.data.validation else None
         truth = find_truth(calibration_path)  # the inputs all read, and a record that is not one refused, before the work
         simulated = (truth is not None, validation_path is not None and find_truth(validation_path) is not None)
     with stage("identifying the robot and diagnosing the residuals"):

@@ -3,8 +3,8 @@
 When Python exits, it collects every object it still tracks: the imported modules (NumPy, SciPy, CasADi,
 Matplotlib, WeasyPrint) and whatever the command built, the CasADi graphs of its models among them. The
 operating system takes the process's memory back at once anyway; that last collection only spends
-CPU, 0.8-2.5 s per command measured on the shipped ball-bar example (a third of `armcal validate`,
-a quarter of `armcal run --no-pdf`). Objects left to the operating system this way are not finalized
+CPU, 0.6-2.7 s per command on the shipped ball-bar example (benchmarks/bench_process_end.py: a quarter
+of `armcal validate`'s CPU, a tenth of a `run`'s). Objects left to the operating system this way are not finalized
 by the collector; armcal closes its files and builds its output set before a command returns
 (support/output_set.py), and Python's exit handlers (atexit) run as before.
 """
